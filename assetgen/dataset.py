@@ -1,0 +1,372 @@
+"""Datasets of modules on disk: spec, manifest, resumable parallel generation, loading.
+
+Layout (see design.md):
+    <root>/dataset.json     the spec (generator version, config, seeds, formats) and counts
+    <root>/manifest.jsonl   one line per finished module, sorted by id once a run completes
+    <root>/modules/<id>/    module.json and the files of every format
+
+A module folder appears only by an atomic rename of a complete temporary folder, and the
+manifest only lists modules whose folder exists, so a run killed at any moment (SIGKILL too)
+leaves a dataset that the next run completes to the same content hash.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+
+from assetgen import GENERATOR_VERSION
+from assetgen.module_writer import ModuleFailure, generate_module, module_id, write_json
+from assetgen.params import ParamError
+from assetgen.sampler import SamplerConfig
+
+SPEC_KEYS = {"name", "seed_start", "count", "config", "formats"}
+DEFAULT_FORMATS = ("mjcf", "usd")
+SPECS_DIR = Path(__file__).resolve().parent.parent / "datasets"
+
+
+class DatasetError(RuntimeError):
+    """A dataset that cannot be used as asked; the message says how to proceed."""
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """What a dataset holds: modules for seeds seed_start .. seed_start + count - 1."""
+
+    name: str
+    """Dataset name (also its folder name under datasets/ when given by name)."""
+    seed_start: int
+    """First module seed."""
+    count: int
+    """Number of modules."""
+    config: SamplerConfig = field(default_factory=SamplerConfig)
+    """Table I sampling ranges."""
+    formats: tuple[str, ...] = DEFAULT_FORMATS
+    """Simulation formats written besides STL and 3MF."""
+
+    def validate(self) -> DatasetSpec:
+        if not isinstance(self.count, int) or self.count < 1:
+            raise DatasetError(f"count = {self.count!r}: a dataset needs at least 1 module")
+        if not isinstance(self.seed_start, int) or self.seed_start < 0:
+            raise DatasetError(f"seed_start = {self.seed_start!r} must be a non-negative integer")
+        self.config.validate()
+        return self
+
+    @property
+    def seeds(self) -> range:
+        return range(self.seed_start, self.seed_start + self.count)
+
+    def to_json(self) -> dict:
+        return {
+            "name": self.name,
+            "seed_start": self.seed_start,
+            "count": self.count,
+            "config": self.config.to_json(),
+            "formats": list(self.formats),
+        }
+
+    @staticmethod
+    def from_json(d: dict, source: str = "spec") -> DatasetSpec:
+        unknown = sorted(set(d) - SPEC_KEYS)
+        if unknown:
+            raise DatasetError(
+                f"{source}: unknown key(s) {unknown}; valid keys: {sorted(SPEC_KEYS)}"
+            )
+        missing = sorted({"name", "seed_start", "count"} - set(d))
+        if missing:
+            raise DatasetError(f"{source}: missing key(s) {missing}")
+        try:
+            return DatasetSpec(
+                name=d["name"],
+                seed_start=d["seed_start"],
+                count=d["count"],
+                config=SamplerConfig.from_json(d.get("config", {})),
+                formats=tuple(d.get("formats", DEFAULT_FORMATS)),
+            ).validate()
+        except ParamError as e:
+            raise DatasetError(f"{source}: {e}") from e
+
+
+def spec_names() -> list[str]:
+    return sorted(p.stem for p in SPECS_DIR.glob("*.json"))
+
+
+def resolve(dataset: str) -> tuple[Path, DatasetSpec | None]:
+    """`--dataset` value -> (dataset folder, spec if given by name).
+
+    A name of a spec file in datasets/ (e.g. `train`) maps to datasets/<name>/; anything else
+    is taken as the path of a dataset folder.
+    """
+    spec_file = SPECS_DIR / f"{dataset}.json"
+    if "/" not in dataset and spec_file.exists():
+        spec = DatasetSpec.from_json(json.loads(spec_file.read_text()), str(spec_file))
+        return SPECS_DIR / dataset, spec
+    path = Path(dataset)
+    if path.exists() or "/" in dataset or dataset.startswith("."):
+        return path, None
+    raise DatasetError(
+        f"no dataset spec named {dataset!r} and no folder {dataset!r}; "
+        f"specs: {spec_names()}, or pass the path of a dataset folder"
+    )
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+class Dataset:
+    """A finished (or partly finished) dataset folder, for the simulator and the tools."""
+
+    def __init__(self, root: Path | str):
+        self.root = Path(root)
+        spec_file = self.root / "dataset.json"
+        if not spec_file.exists():
+            raise DatasetError(
+                f"{self.root} is not a dataset (no dataset.json); "
+                "create one with `assetgen sample --dataset NAME` or `--out DIR`"
+            )
+        try:
+            self.info = json.loads(spec_file.read_text())
+            self.spec = DatasetSpec.from_json(self.info["spec"], str(spec_file))
+        except (json.JSONDecodeError, KeyError) as e:
+            raise DatasetError(f"{spec_file} is corrupt ({e}); regenerate the dataset") from e
+        self.records = read_manifest(self.root / "manifest.jsonl")
+
+    @property
+    def ids(self) -> list[str]:
+        return sorted(self.records)
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def module_dir(self, mid: str) -> Path:
+        if mid not in self.records:
+            raise DatasetError(
+                f"module {mid!r} is not in {self.root} ({len(self)} modules, "
+                f"ids {self.ids[0] if self.ids else '-'} .. {self.ids[-1] if self.ids else '-'})"
+            )
+        return self.root / "modules" / mid
+
+    def module_json(self, mid: str) -> dict:
+        return json.loads((self.module_dir(mid) / "module.json").read_text())
+
+    def paths(self, mid: str) -> dict[str, Path]:
+        """Files of module `mid` by role: peg_stl, module_stl, 3mf, usd, mjcf, collision."""
+        d = self.module_dir(mid)
+        return {
+            "module_json": d / "module.json",
+            "peg_stl": d / "peg.stl",
+            "module_stl": d / "module.stl",
+            "3mf": d / "peg_in_hole.3mf",
+            "usd": d / "peg_in_hole.usda",
+            "mjcf": d / "peg_in_hole.xml",
+            "collision": d / "collision",
+        }
+
+
+def read_manifest(path: Path) -> dict[str, dict]:
+    """Records by id; a corrupt line raises DatasetError naming the line."""
+    records: dict[str, dict] = {}
+    if not path.exists():
+        return records
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+            records[rec["id"]] = rec
+        except (json.JSONDecodeError, KeyError, TypeError) as e:
+            raise DatasetError(
+                f"{path}:{n} is not a valid manifest line ({e}); run `assetgen check "
+                f"{path.parent} --repair` to rebuild the manifest from the module folders"
+            ) from e
+    return records
+
+
+def manifest_line(record: dict) -> dict:
+    keys = ("id", "seed", "params", "checks", "files")
+    return {k: record[k] for k in keys}
+
+
+def content_hash(records: dict[str, dict]) -> str:
+    """Hash of every module's id and file hashes: equal datasets have equal hashes."""
+    h = hashlib.sha256()
+    for mid in sorted(records):
+        for name, digest in sorted(records[mid]["files"].items()):
+            h.update(f"{mid}/{name}:{digest}\n".encode())
+    return h.hexdigest()
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+@dataclass
+class RunSummary:
+    total: int
+    cached: int
+    generated: int
+    failures: list[ModuleFailure]
+    seconds: float
+    content_hash: str
+    clearance_min_m: float
+    clearance_max_m: float
+
+
+def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> tuple[int, dict | None, str | None]:
+    seed, config, modules_dir, formats = args
+    try:
+        rec = generate_module(seed, SamplerConfig.from_json(config), Path(modules_dir), formats)
+        return seed, manifest_line(rec), None
+    except ModuleFailure as e:
+        return seed, None, e.reason
+
+
+def _prepare(root: Path, spec: DatasetSpec, overwrite: bool) -> None:
+    info_file = root / "dataset.json"
+    if info_file.exists():
+        old = json.loads(info_file.read_text())
+        same = old.get("spec") == spec.to_json()
+        same_version = old.get("generator_version") == GENERATOR_VERSION
+        if not (same and same_version) and not overwrite:
+            what = "spec" if not same else f"generator version ({old.get('generator_version')})"
+            raise DatasetError(
+                f"{root} holds a dataset with a different {what}; use a new name/folder, or "
+                "pass --overwrite to delete its modules and regenerate"
+            )
+        if not (same and same_version):
+            _clear(root)
+    elif root.exists() and any(root.iterdir()):
+        foreign = sorted(p.name for p in root.iterdir())[:5]
+        raise DatasetError(
+            f"{root} is not empty and holds no dataset.json (found {foreign}); "
+            "choose an empty or new folder"
+        )
+    (root / "modules").mkdir(parents=True, exist_ok=True)
+    write_json(info_file, _info(spec, None))
+
+
+def _clear(root: Path) -> None:
+    import shutil
+
+    shutil.rmtree(root / "modules", ignore_errors=True)
+    for name in ("manifest.jsonl", "dataset.json"):
+        (root / name).unlink(missing_ok=True)
+
+
+def _info(spec: DatasetSpec, summary: dict | None) -> dict:
+    return {
+        "generator_version": GENERATOR_VERSION,
+        "spec": spec.to_json(),
+        "clearance_m": spec.config.clearance,
+        "seeds": [spec.seed_start, spec.seed_start + spec.count - 1],
+        "summary": summary,
+    }
+
+
+def _adopt_orphans(root: Path, records: dict[str, dict], wanted: set[str]) -> None:
+    """Folders renamed into place by a run killed before its manifest line: take them in.
+
+    Leftover temporary folders of killed runs are removed.
+    """
+    import shutil
+
+    for d in (root / "modules").iterdir():
+        if d.name.startswith(".tmp-"):
+            shutil.rmtree(d, ignore_errors=True)
+        elif d.name in wanted and d.name not in records:
+            try:
+                rec = json.loads((d / "module.json").read_text())
+                records[d.name] = manifest_line(rec)
+            except (OSError, json.JSONDecodeError, KeyError):
+                shutil.rmtree(d, ignore_errors=True)
+
+
+def generate(
+    root: Path,
+    spec: DatasetSpec,
+    *,
+    workers: int | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+) -> RunSummary:
+    """Generate every module of `spec` not yet in `root`; return a summary."""
+    spec.validate()
+    t0 = time.perf_counter()
+    _prepare(root, spec, overwrite)
+    manifest = root / "manifest.jsonl"
+    records = read_manifest(manifest)
+    wanted = {module_id(s): s for s in spec.seeds}
+    _adopt_orphans(root, records, set(wanted))
+    todo = [s for mid, s in wanted.items() if mid not in records]
+    cached = len(wanted) - len(todo)
+    failures: list[ModuleFailure] = []
+    if todo:
+        with manifest.open("a") as out:
+            for seed, line, reason in _run(root, spec, todo, workers, progress):
+                if line is None:
+                    failures.append(ModuleFailure(seed, reason or "unknown"))
+                    continue
+                records[line["id"]] = line
+                out.write(json.dumps(line, sort_keys=True) + "\n")
+                out.flush()
+    # Sorted and complete: the manifest of a finished dataset does not depend on run order.
+    tmp = manifest.with_name("manifest.jsonl.tmp")
+    tmp.write_text("".join(json.dumps(records[m], sort_keys=True) + "\n" for m in sorted(records)))
+    os.replace(tmp, manifest)
+    gaps = [r["checks"]["clearance_m"] for r in records.values()]
+    summary = RunSummary(
+        total=len(wanted),
+        cached=cached,
+        generated=len(todo) - len(failures),
+        failures=failures,
+        seconds=time.perf_counter() - t0,
+        content_hash=content_hash(records),
+        clearance_min_m=min(gaps) if gaps else float("nan"),
+        clearance_max_m=max(gaps) if gaps else float("nan"),
+    )
+    write_json(
+        root / "dataset.json",
+        _info(
+            spec,
+            {
+                "modules": len(records),
+                "failed_seeds": sorted(f.seed for f in failures),
+                "content_hash": summary.content_hash,
+            },
+        ),
+    )
+    return summary
+
+
+def _run(
+    root: Path, spec: DatasetSpec, seeds: list[int], workers: int | None, progress: bool
+) -> Iterator[tuple[int, dict | None, str | None]]:
+    workers = workers or os.cpu_count() or 1
+    jobs = [(s, spec.config.to_json(), str(root / "modules"), spec.formats) for s in seeds]
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    bar = Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        disable=not progress,
+        transient=True,
+    )
+    with bar:
+        task = bar.add_task("modules", total=len(jobs))
+        if workers == 1:
+            results = map(_worker, jobs)
+            for r in results:
+                bar.advance(task)
+                yield r
+            return
+        with get_context("fork").Pool(workers) as pool:
+            for r in pool.imap_unordered(_worker, jobs, chunksize=4):
+                bar.advance(task)
+                yield r

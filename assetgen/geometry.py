@@ -1,0 +1,223 @@
+"""Params in, solids and frames out: the peg, the plate with its hole, and the task frames.
+
+Pure geometry: nothing here touches the disk. Construction (all exact up to float rounding):
+- peg: the cross-section polygon at the top (z = h), (1 - taper) times it at the bottom (z = 0),
+  joined by planar side faces; convex, in the peg frame.
+- hole: in the design pose, every face plane of the inserted peg moved out by the clearance
+  (mitred corners), plus the vertical planes of the top cross-section, so the hole continues
+  straight up along its axis above the peg's top: a convex polytope.
+- module: (plate U sleeve) - hole, where the sleeve is the hole's planes moved out by a
+  further wall (floor) thickness, hanging below the plate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import manifold3d as mf
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from assetgen.frames import Frame
+from assetgen.mesh import Mesh
+from assetgen.params import ModuleParams, ParamError
+from assetgen.polytope import interior_point, offset_planes, polytope_vertices, transform_planes
+
+HOLE_CAP_Z = 0.02
+"""Height above the mounting surface (m) where the hole's solid is capped; only needs to be
+above every point of the module so the cut opens at the top."""
+
+
+class GeometryError(ParamError):
+    """Valid-looking params whose module cannot be built (e.g. the hole leaves the plate)."""
+
+
+@dataclass(frozen=True)
+class ModuleGeometry:
+    """The solids and frames of one module. Meshes in metres.
+
+    peg            : the peg in the peg frame.
+    module         : plate with sleeve and hole, in the module frame.
+    hole_planes    : (k, 4) rows [n, d], module frame: the hole is {x : n . x <= d} (uncapped).
+    sleeve_vertices: (m, 3) points whose convex hull, below mid-plate, is the sleeve.
+    entrance       : where the hole axis meets the mounting surface, z = surface normal.
+    bottom         : centre of the hole floor, z along the hole axis; a seated peg's frame.
+    design_pose    : the bottom frame moved up the axis by the clearance: every gap = clearance.
+    """
+
+    params: ModuleParams
+    peg: Mesh
+    module: Mesh
+    hole_planes: np.ndarray
+    sleeve_vertices: np.ndarray
+    entrance: Frame
+    bottom: Frame
+    design_pose: Frame
+    module_genus: int
+    module_volume: float
+
+
+def cross_section(p: ModuleParams) -> np.ndarray:
+    """Top cross-section polygon (n, 2), counter-clockwise, centred on the peg axis (m)."""
+    k = np.arange(p.n_vertices)
+    theta = 2 * np.pi * k / p.n_vertices
+    pts = p.circumradius * np.column_stack([np.cos(theta), np.sin(theta)])
+    c, s = math.cos(p.squash_angle), math.sin(p.squash_angle)
+    rot = np.array([[c, -s], [s, c]])
+    # Squash along the axis at squash_angle: R diag(aspect, 1) R^T keeps convexity and CCW order.
+    squash = rot @ np.diag([p.aspect_ratio, 1.0]) @ rot.T
+    return pts @ squash.T
+
+
+def peg_mesh(p: ModuleParams) -> Mesh:
+    """The peg as a closed mesh in the peg frame (bottom face centre at the origin)."""
+    top = cross_section(p)
+    n = len(top)
+    bottom = (1.0 - p.taper) * top
+    v = np.vstack(
+        [
+            np.column_stack([bottom, np.zeros(n)]),
+            np.column_stack([top, np.full(n, p.peg_height)]),
+        ]
+    )
+    i = np.arange(n)
+    j = (i + 1) % n
+    sides = np.vstack([np.column_stack([i, j, n + j]), np.column_stack([i, n + j, n + i])])
+    fan = np.arange(1, n - 1)
+    bottom_faces = np.column_stack([np.zeros(n - 2, int), fan + 1, fan])
+    top_faces = np.column_stack([np.full(n - 2, n), n + fan, n + fan + 1])
+    return Mesh(v, np.vstack([sides, bottom_faces, top_faces]).astype(np.int64))
+
+
+def peg_planes(p: ModuleParams) -> np.ndarray:
+    """Face planes of the inserted peg and its straight extension, peg frame, rows [n, d].
+
+    Side faces of the frustum, the bottom face, and (if tapered) the vertical planes through
+    the top polygon's edges, which bound the hole above the peg's top.
+    """
+    top = cross_section(p)
+    n = len(top)
+    h = p.peg_height
+    bottom = (1.0 - p.taper) * top
+    rows = []
+    for k in range(n):
+        a0 = np.array([*bottom[k], 0.0])
+        a1 = np.array([*bottom[(k + 1) % n], 0.0])
+        b0 = np.array([*top[k], h])
+        normal = np.cross(a1 - a0, b0 - a0)
+        normal /= np.linalg.norm(normal)
+        rows.append([*normal, normal @ a0])
+    if p.taper > 0:
+        for k in range(n):
+            e = top[(k + 1) % n] - top[k]
+            normal = np.array([e[1], -e[0], 0.0]) / np.hypot(*e)
+            rows.append([*normal, normal[:2] @ top[k]])
+    rows.append([0.0, 0.0, -1.0, 0.0])
+    return np.array(rows)
+
+
+def hole_rotation(p: ModuleParams) -> np.ndarray:
+    """Rotation (3, 3) of the bottom frame in the module frame: Rx(tilt_x) Ry(tilt_y) Rz(yaw)."""
+    cx, sx = math.cos(p.hole_tilt_x), math.sin(p.hole_tilt_x)
+    cy, sy = math.cos(p.hole_tilt_y), math.sin(p.hole_tilt_y)
+    cz, sz = math.cos(p.hole_yaw), math.sin(p.hole_yaw)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def task_frames(p: ModuleParams) -> tuple[Frame, Frame, Frame]:
+    """(entrance, bottom, design_pose) in the module frame."""
+    r = hole_rotation(p)
+    axis = r[:, 2]
+    entrance = np.array([p.hole_x, p.hole_y, 0.0])
+    m = np.eye(4)
+    m[:3, :3] = r
+    m[:3, 3] = entrance - p.hole_depth * axis
+    bottom = Frame.from_matrix(m)
+    m[:3, 3] += p.clearance * axis
+    design = Frame.from_matrix(m)
+    return Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design
+
+
+def _solid(vertices: np.ndarray, faces: np.ndarray) -> mf.Manifold:
+    return mf.Manifold(mf.Mesh64(vert_properties=np.ascontiguousarray(vertices), tri_verts=faces))
+
+
+def _to_mesh(solid: mf.Manifold) -> Mesh:
+    m = solid.to_mesh64()
+    return Mesh(np.asarray(m.vert_properties)[:, :3].copy(), np.asarray(m.tri_verts, np.int64))
+
+
+def _cap(z_max: float) -> np.ndarray:
+    return np.array([[0.0, 0.0, 1.0, z_max]])
+
+
+def build_module(p: ModuleParams) -> ModuleGeometry:
+    """Build the peg, the module and the frames of `p` (validated first)."""
+    p.validate()
+    entrance, bottom, design = task_frames(p)
+    design_m = design.matrix()
+    axis = design_m[:3, 2]
+    hole_planes = transform_planes(offset_planes(peg_planes(p), p.clearance), design_m)
+    centre = np.array(design.pos) + 0.5 * p.hole_depth * axis
+    capped = np.vstack([hole_planes, _cap(HOLE_CAP_Z)])
+    inside = interior_point(capped, centre)
+    if inside is None:
+        raise GeometryError("the hole is empty for these parameters")
+    hole_vertices = polytope_vertices(capped, inside)
+
+    half = p.plate_size / 2
+    t = p.plate_thickness
+    # The hole and its wall must stay inside the plate, or the plate's edge is cut open.
+    slab = np.vstack([hole_planes, _cap(0.0), [[0.0, 0.0, -1.0, t]]])
+    inside = interior_point(slab, np.array([p.hole_x, p.hole_y, -t / 2]))
+    if inside is None:
+        raise GeometryError(
+            "the hole does not reach the mounting surface; increase hole_depth_fraction"
+        )
+    extent = np.abs(polytope_vertices(slab, inside)[:, :2]).max() + p.sleeve_wall
+    if extent > half:
+        raise GeometryError(
+            f"the hole with its {p.sleeve_wall * 1e3:g} mm wall reaches {extent * 1e3:.2f} mm "
+            f"from the plate centre, beyond the plate's edge at {half * 1e3:g} mm (clearance "
+            f"{p.clearance * 1e3:g} mm, hole at ({p.hole_x * 1e3:.1f}, {p.hole_y * 1e3:.1f}) mm): "
+            "reduce the clearance, the circumradius or the hole offset, or enlarge the plate"
+        )
+
+    # Sleeve: the hole grown by a box of half-sizes (wall, wall, floor) in the hole frame (a
+    # Minkowski sum, so every wall is at least that thick), below mid-plate so the union with
+    # the plate is a clean solid. Growing by a box, not by moving planes, keeps acute corners
+    # of squashed polygons from growing long mitred spikes.
+    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    box = box * [p.sleeve_wall, p.sleeve_wall, p.floor_thickness] @ design_m[:3, :3].T
+    sleeve_vertices = (hole_vertices[:, None, :] + box[None]).reshape(-1, 3)
+    hole = mf.Manifold.hull_points(hole_vertices)
+    plate = mf.Manifold.cube([p.plate_size, p.plate_size, t], center=True).translate([0, 0, -t / 2])
+    body = plate
+    # Clip the sleeve as half-spaces (qhull), not with manifold's trim, whose cut through a
+    # hull of many near-coplanar points can leave coincident vertices (pinches in the STL).
+    hull = ConvexHull(sleeve_vertices)
+    sleeve_planes = np.vstack(
+        [np.column_stack([hull.equations[:, :3], -hull.equations[:, 3]]), _cap(-t / 2)]
+    )
+    floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
+    inside = interior_point(sleeve_planes, floor_point)
+    if inside is not None:
+        body = body + mf.Manifold.hull_points(polytope_vertices(sleeve_planes, inside))
+    module = body - hole
+    peg = peg_mesh(p)
+    return ModuleGeometry(
+        params=p,
+        peg=peg,
+        module=_to_mesh(module),
+        hole_planes=hole_planes,
+        sleeve_vertices=sleeve_vertices,
+        entrance=entrance,
+        bottom=bottom,
+        design_pose=design,
+        module_genus=int(module.genus()),
+        module_volume=float(module.volume()),
+    )

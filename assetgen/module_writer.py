@@ -1,0 +1,177 @@
+"""One module from seed to a finished folder: build, write, read back, check, export, rename.
+
+Everything is written into a temporary sibling folder and renamed into place only once every
+check has passed and every file exists, so a folder named `<id>` is always complete and a
+module that fails a check is never written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from assetgen import GENERATOR_VERSION
+from assetgen.checks import CheckError, verify
+from assetgen.geometry import ModuleGeometry, build_module
+from assetgen.params import ModuleParams, ParamError
+from assetgen.sampler import SamplerConfig, sample_params
+from assetgen.stl import read_stl_mm, stl_bytes
+from assetgen.threemf import threemf_bytes
+
+PEG_MASS = 0.2
+"""Peg mass, kg (paper)."""
+MEASURE_DIGITS = 12
+"""Measured values are rounded to 1e-12 (SI) so files do not depend on the last float bit."""
+
+
+class ModuleFailure(RuntimeError):
+    """A module that could not be built or failed a check; carries its seed and reason."""
+
+    def __init__(self, seed: int, reason: str):
+        super().__init__(f"module seed {seed}: {reason}")
+        self.seed = seed
+        self.reason = reason
+
+
+@dataclass
+class ExportContext:
+    """What an exporter sees: the folder being written and everything known so far."""
+
+    folder: Path
+    geometry: ModuleGeometry
+    record: dict
+    """module.json being assembled; exporters add their own sections."""
+
+
+Exporter = Callable[[ExportContext], None]
+EXPORTERS: dict[str, Exporter] = {}
+"""Simulation-format exporters keyed by format name, run after the printable files."""
+
+
+def module_id(seed: int) -> str:
+    return f"{seed:06d}"
+
+
+def _round(x):
+    if isinstance(x, dict):
+        return {k: _round(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_round(v) for v in x]
+    if isinstance(x, float):
+        return round(x, MEASURE_DIGITS)
+    return x
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def peg_mass_properties(geom: ModuleGeometry) -> dict:
+    """Mass, centre of mass (peg frame, m) and inertia about the COM (kg m^2) of the peg."""
+    tm = trimesh.Trimesh(geom.peg.vertices, geom.peg.faces, process=False)
+    volume = float(tm.volume)
+    tm.density = PEG_MASS / volume
+    return {
+        "mass_kg": PEG_MASS,
+        "volume_m3": volume,
+        "com_m": [float(v) for v in tm.center_mass],
+        "inertia_kg_m2": np.asarray(tm.moment_inertia).tolist(),
+    }
+
+
+def insertion_travel(geom: ModuleGeometry) -> float:
+    """How far above the design pose the checked straight insertion starts (m): enough for
+    the peg's bottom face to be above the mounting surface at any tilt."""
+    p = geom.params
+    return p.hole_depth + p.circumradius + 0.01
+
+
+def write_json(path: Path, data: dict) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    os.replace(tmp, path)
+
+
+def generate_module(
+    seed: int,
+    config: SamplerConfig,
+    modules_dir: Path,
+    formats: tuple[str, ...] = (),
+) -> dict:
+    """Sample module `seed` under `config` and write it (see write_module)."""
+    try:
+        params = sample_params(config, seed)
+    except ParamError as e:
+        raise ModuleFailure(seed, str(e)) from e
+    return write_module(params, seed, modules_dir, formats)
+
+
+def write_module(
+    params: ModuleParams,
+    seed: int,
+    modules_dir: Path,
+    formats: tuple[str, ...] = (),
+) -> dict:
+    """Build, check and write a module into `modules_dir/<id>/`; return its module.json.
+
+    Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
+    check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF.
+    """
+    unknown = [f for f in formats if f not in EXPORTERS]
+    if unknown:
+        raise ValueError(f"unknown export format(s) {unknown}; valid: {sorted(EXPORTERS)}")
+    mid = module_id(seed)
+    final = modules_dir / mid
+    tmp = modules_dir / f".tmp-{mid}-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    try:
+        geom = build_module(params)
+        tmp.mkdir(parents=True)
+        (tmp / "peg.stl").write_bytes(stl_bytes(geom.peg))
+        (tmp / "module.stl").write_bytes(stl_bytes(geom.module))
+        checks = verify(
+            read_stl_mm(tmp / "peg.stl"),
+            read_stl_mm(tmp / "module.stl"),
+            geom.design_pose,
+            params.clearance,
+            insertion_travel(geom),
+        )
+        (tmp / "peg_in_hole.3mf").write_bytes(threemf_bytes(geom.peg, geom.module))
+        record = {
+            "id": mid,
+            "seed": seed,
+            "generator_version": GENERATOR_VERSION,
+            "params": params.to_json(),
+            "clearance": params.clearance,
+            "frames": {
+                "entrance": geom.entrance.to_json(),
+                "bottom": geom.bottom.to_json(),
+                "design_pose": geom.design_pose.to_json(),
+            },
+            "peg": peg_mass_properties(geom),
+            "checks": checks,
+        }
+        ctx = ExportContext(tmp, geom, record)
+        for f in formats:
+            EXPORTERS[f](ctx)
+        record["files"] = {
+            str(p.relative_to(tmp)): sha256(p) for p in sorted(tmp.rglob("*")) if p.is_file()
+        }
+        write_json(tmp / "module.json", _round(record))
+        os.replace(tmp, final)
+        return record
+    except (ParamError, CheckError) as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ModuleFailure(seed, str(e)) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -1,0 +1,35 @@
+"""Binary STL in millimetres: a deterministic writer (numpy, no timestamps in the header)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from assetgen.mesh import Mesh
+
+HEADER = b"assetgen binary STL; units: millimetres".ljust(80, b" ")
+_RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+
+
+def stl_bytes(mesh: Mesh, scale: float = 1000.0) -> bytes:
+    """The mesh (metres) as binary STL bytes in millimetres (`scale` = mm per m)."""
+    tri = mesh.vertices[mesh.faces] * scale
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    rec = np.zeros(len(tri), dtype=_RECORD)
+    rec["normal"] = normal
+    rec["v"] = tri
+    return HEADER + np.uint32(len(tri)).tobytes() + rec.tobytes()
+
+
+def read_stl_mm(path: Path) -> Mesh:
+    """Read a binary STL written in millimetres back as a Mesh in metres (vertices merged).
+
+    Independent of the writer above: parsing, merging and checks go through trimesh.
+    """
+    import trimesh
+
+    tm = trimesh.load_mesh(str(path), file_type="stl", process=True)
+    return Mesh(np.asarray(tm.vertices) / 1000.0, np.asarray(tm.faces, np.int64))
