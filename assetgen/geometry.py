@@ -3,11 +3,10 @@
 Pure geometry: nothing here touches the disk. Construction (all exact up to float rounding):
 - peg: the cross-section polygon at the top (z = h), (1 - taper) times it at the bottom (z = 0),
   joined by planar side faces; convex, in the peg frame.
-- hole: in the design pose, every face plane of the inserted peg moved out by the clearance
-  (mitred corners), plus the vertical planes of the top cross-section, so the hole continues
-  straight up along its axis above the peg's top: a convex polytope.
+- hole: in the design pose, every face plane of the peg (sides and bottom) moved out by the
+  clearance (mitred corners), continued up through the mounting surface: a convex polytope.
 - module: (plate U sleeve) - hole, where the sleeve is the hole's planes moved out by a
-  further wall (floor) thickness, hanging below the plate.
+  further wall (floor) thickness, cut to the hole's bounding box, hanging below the plate.
 """
 
 from __future__ import annotations
@@ -17,7 +16,6 @@ from dataclasses import dataclass
 
 import manifold3d as mf
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from assetgen.frames import Frame
 from assetgen.mesh import Mesh
@@ -40,7 +38,7 @@ class ModuleGeometry:
     peg            : the peg in the peg frame.
     module         : plate with sleeve and hole, in the module frame.
     hole_planes    : (k, 4) rows [n, d], module frame: the hole is {x : n . x <= d} (uncapped).
-    sleeve_vertices: (m, 3) points whose convex hull, below mid-plate, is the sleeve.
+    sleeve_planes  : (k, 4) the sleeve as half-spaces (see sleeve_half_spaces), module frame.
     entrance       : where the hole axis meets the mounting surface, z = surface normal.
     bottom         : centre of the hole floor, z along the hole axis; a seated peg's frame.
     design_pose    : the bottom frame moved up the axis by the clearance: every gap = clearance.
@@ -50,7 +48,7 @@ class ModuleGeometry:
     peg: Mesh
     module: Mesh
     hole_planes: np.ndarray
-    sleeve_vertices: np.ndarray
+    sleeve_planes: np.ndarray
     entrance: Frame
     bottom: Frame
     design_pose: Frame
@@ -91,10 +89,11 @@ def peg_mesh(p: ModuleParams) -> Mesh:
 
 
 def peg_planes(p: ModuleParams) -> np.ndarray:
-    """Face planes of the inserted peg and its straight extension, peg frame, rows [n, d].
+    """Face planes of the peg's sides and bottom, peg frame, rows [n, d] (n . x <= d inside).
 
-    Side faces of the frustum, the bottom face, and (if tapered) the vertical planes through
-    the top polygon's edges, which bound the hole above the peg's top.
+    The hole is these planes moved out by the clearance. Above the peg's top it simply goes
+    on along the side planes, which widen upward (the peg tapers toward its bottom), so a
+    straight insertion along the axis never comes nearer than the clearance.
     """
     top = cross_section(p)
     n = len(top)
@@ -108,11 +107,6 @@ def peg_planes(p: ModuleParams) -> np.ndarray:
         normal = np.cross(a1 - a0, b0 - a0)
         normal /= np.linalg.norm(normal)
         rows.append([*normal, normal @ a0])
-    if p.taper > 0:
-        for k in range(n):
-            e = top[(k + 1) % n] - top[k]
-            normal = np.array([e[1], -e[0], 0.0]) / np.hypot(*e)
-            rows.append([*normal, normal[:2] @ top[k]])
     rows.append([0.0, 0.0, -1.0, 0.0])
     return np.array(rows)
 
@@ -155,6 +149,34 @@ def _cap(z_max: float) -> np.ndarray:
     return np.array([[0.0, 0.0, 1.0, z_max]])
 
 
+def sleeve_half_spaces(
+    p: ModuleParams, hole_planes: np.ndarray, hole_vertices: np.ndarray, design_m: np.ndarray
+) -> np.ndarray:
+    """The sleeve (k, 4): every hole plane moved out by the wall (the floor by the floor
+    thickness), cut to the hole's bounding box in the hole frame grown by the wall, below
+    mid-plate (so its union with the plate is a clean solid).
+
+    The mitred planes make the sleeve's convex decomposition exact and cheap (each wall piece
+    lies beyond one hole plane); the box keeps the acute corners of squashed polygons from
+    growing long mitred spikes. Every wall is at least `sleeve_wall` thick.
+    """
+    extra = np.full(len(hole_planes), p.sleeve_wall)
+    extra[-1] = p.floor_thickness  # the floor plane is the last row of peg_planes
+    local = (hole_vertices - design_m[:3, 3]) @ design_m[:3, :3]
+    lo = local[:, :2].min(axis=0) - p.sleeve_wall
+    hi = local[:, :2].max(axis=0) + p.sleeve_wall
+    box = np.array(
+        [[1, 0, 0, hi[0]], [-1, 0, 0, -lo[0]], [0, 1, 0, hi[1]], [0, -1, 0, -lo[1]]], float
+    )
+    return np.vstack(
+        [
+            offset_planes(hole_planes, extra),
+            transform_planes(box, design_m),
+            _cap(-p.plate_thickness / 2),
+        ]
+    )
+
+
 def build_module(p: ModuleParams) -> ModuleGeometry:
     """Build the peg, the module and the frames of `p` (validated first)."""
     p.validate()
@@ -187,22 +209,10 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
             "reduce the clearance, the circumradius or the hole offset, or enlarge the plate"
         )
 
-    # Sleeve: the hole grown by a box of half-sizes (wall, wall, floor) in the hole frame (a
-    # Minkowski sum, so every wall is at least that thick), below mid-plate so the union with
-    # the plate is a clean solid. Growing by a box, not by moving planes, keeps acute corners
-    # of squashed polygons from growing long mitred spikes.
-    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    box = box * [p.sleeve_wall, p.sleeve_wall, p.floor_thickness] @ design_m[:3, :3].T
-    sleeve_vertices = (hole_vertices[:, None, :] + box[None]).reshape(-1, 3)
+    sleeve_planes = sleeve_half_spaces(p, hole_planes, hole_vertices, design_m)
     hole = mf.Manifold.hull_points(hole_vertices)
     plate = mf.Manifold.cube([p.plate_size, p.plate_size, t], center=True).translate([0, 0, -t / 2])
     body = plate
-    # Clip the sleeve as half-spaces (qhull), not with manifold's trim, whose cut through a
-    # hull of many near-coplanar points can leave coincident vertices (pinches in the STL).
-    hull = ConvexHull(sleeve_vertices)
-    sleeve_planes = np.vstack(
-        [np.column_stack([hull.equations[:, :3], -hull.equations[:, 3]]), _cap(-t / 2)]
-    )
     floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
     inside = interior_point(sleeve_planes, floor_point)
     if inside is not None:
@@ -214,7 +224,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         peg=peg,
         module=_to_mesh(module),
         hole_planes=hole_planes,
-        sleeve_vertices=sleeve_vertices,
+        sleeve_planes=sleeve_planes,
         entrance=entrance,
         bottom=bottom,
         design_pose=design,

@@ -125,6 +125,9 @@ def write_module(
     Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
     check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF.
     """
+    from assetgen.exporters import with_dependencies
+
+    formats = with_dependencies(formats)
     unknown = [f for f in formats if f not in EXPORTERS]
     if unknown:
         raise ValueError(f"unknown export format(s) {unknown}; valid: {sorted(EXPORTERS)}")

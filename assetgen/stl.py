@@ -33,3 +33,25 @@ def read_stl_mm(path: Path) -> Mesh:
 
     tm = trimesh.load_mesh(str(path), file_type="stl", process=True)
     return Mesh(np.asarray(tm.vertices) / 1000.0, np.asarray(tm.faces, np.int64))
+
+
+def read_stl_triangles_mm(path: Path) -> np.ndarray:
+    """Triangles (m, 3, 3) in metres from a binary STL in millimetres, as stored (no merging).
+
+    A plain numpy parse for the many small collision pieces, where a triangle soup is all a
+    distance query needs; raises ValueError naming the file if it is not a whole binary STL.
+    """
+    data = Path(path).read_bytes()
+    if len(data) < 84:
+        raise ValueError(f"{path}: {len(data)} bytes is too short for a binary STL")
+    n = int(np.frombuffer(data, "<u4", 1, 80)[0])
+    if len(data) != 84 + 50 * n:
+        raise ValueError(
+            f"{path}: header says {n} triangles ({84 + 50 * n} bytes) but the file has "
+            f"{len(data)} bytes: truncated or not a binary STL"
+        )
+    rec = np.frombuffer(data, _RECORD, n, 84)
+    tri = rec["v"].astype(np.float64) / 1000.0
+    if not np.all(np.isfinite(tri)):
+        raise ValueError(f"{path}: holds non-finite coordinates")
+    return tri

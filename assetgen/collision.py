@@ -1,0 +1,91 @@
+"""Collision geometry of a module: convex pieces, written to collision/ and re-checked.
+
+Whatever made the pieces (the exact decomposition, or CoACD for non-convex holes), they are
+read back from the files and the clearance is measured on them with python-fcl: a module
+whose collision geometry comes nearer the seated peg than the clearance is refused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from assetgen.checks import CLEARANCE_TOLERANCE, CheckError, _distance, _fcl_object, _swept_hull
+from assetgen.coacd_decomposition import coacd_pieces
+from assetgen.decomposition import exact_pieces
+from assetgen.geometry import ModuleGeometry
+from assetgen.mesh import Mesh
+from assetgen.stl import read_stl_triangles_mm, stl_bytes
+
+DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
+    "exact": exact_pieces,
+    "coacd": lambda g: coacd_pieces(g.module),
+}
+"""Decomposition methods by name: `exact` for convex holes (ours), `coacd` in general."""
+
+
+def piece_name(i: int) -> str:
+    return f"collision/piece_{i:03d}.stl"
+
+
+def _soup(meshes: list[Mesh]) -> Mesh:
+    """All pieces as one triangle soup, for a single FCL distance query over them."""
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    return Mesh(
+        np.vstack([m.vertices for m in meshes]),
+        np.vstack([m.faces + o for m, o in zip(meshes, offsets, strict=True)]),
+    )
+
+
+def check_pieces(pieces: list[Mesh], peg: Mesh, geom: ModuleGeometry, travel: float) -> dict:
+    """Measure the gaps between the peg and the pieces; raise CheckError if one is lost."""
+    c = geom.params.clearance
+    design = geom.design_pose.matrix()
+    soup = _fcl_object(_soup(pieces))
+    gap = _distance(_fcl_object(peg, design), soup)
+    start = design.copy()
+    start[:3, 3] += travel * design[:3, 2]
+    insertion = _distance(_fcl_object(_swept_hull(peg, start, design)), soup)
+    if gap < c - CLEARANCE_TOLERANCE or insertion < c - CLEARANCE_TOLERANCE:
+        raise CheckError(
+            f"collision pieces come within {min(gap, insertion) * 1e3:.4f} mm of the seated or "
+            f"inserting peg, less than the clearance {c * 1e3:g} mm: the decomposition lost "
+            "clearance (use the exact decomposition, or a finer CoACD threshold)"
+        )
+    return {"clearance_m": gap, "insertion_min_distance_m": insertion}
+
+
+def write_collision(
+    folder: Path, geom: ModuleGeometry, travel: float, method: str = "exact"
+) -> dict:
+    """Decompose, write collision/piece_XXX.stl (mm), read back and check; return a record."""
+    if method not in DECOMPOSERS:
+        raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
+    pieces = DECOMPOSERS[method](geom)
+    (folder / "collision").mkdir(exist_ok=True)
+    names = [piece_name(i) for i in range(len(pieces))]
+    for name, m in zip(names, pieces, strict=True):
+        (folder / name).write_bytes(stl_bytes(m))
+    tris = [read_stl_triangles_mm(folder / n) for n in names]
+    back = [Mesh(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in tris]
+    gaps = check_pieces(back, geom.peg, geom, travel)
+    volume = float(sum(_volume(m) for m in pieces))
+    record = {
+        "method": method,
+        "pieces": names,
+        "volume_ratio": volume / geom.module_volume,
+        **gaps,
+    }
+    if method == "exact" and abs(record["volume_ratio"] - 1.0) > 1e-6:
+        raise CheckError(
+            f"exact convex pieces add up to {record['volume_ratio']:.8f} of the module's volume "
+            "(expected 1): pieces overlap or leave gaps"
+        )
+    return record
+
+
+def _volume(m: Mesh) -> float:
+    t = m.vertices[m.faces]
+    return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)

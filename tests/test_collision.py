@@ -1,0 +1,93 @@
+"""Exact convex decomposition: convex, exact in volume, no clearance lost; CoACD refused."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from assetgen.checks import CheckError
+from assetgen.collision import check_pieces, write_collision
+from assetgen.decomposition import exact_pieces, halfspace_vertices_batch
+from assetgen.geometry import build_module
+from assetgen.module_writer import insertion_travel
+from assetgen.sampler import SamplerConfig, sample_params
+from assetgen.stl import read_stl_triangles_mm
+
+from .test_geometry import CORNERS
+
+
+@pytest.mark.parametrize("seed", [0, 3, 11, 13, 21, 52])
+def test_exact_pieces_are_convex_and_add_up_to_the_module(seed):
+    g = build_module(sample_params(SamplerConfig(), seed))
+    pieces = exact_pieces(g)
+    total = 0.0
+    for m in pieces:
+        tm = trimesh.Trimesh(m.vertices, m.faces, process=True)
+        assert tm.is_watertight and tm.is_convex
+        total += tm.volume
+    assert total == pytest.approx(g.module_volume, rel=1e-6)
+    # Local pieces: besides the 4 far-plate boxes, each covers well under a quarter of the
+    # plate's area, so a broadphase keeps them apart.
+    plate = g.params.plate_size**2
+    big = [np.prod(np.ptp(m.vertices[:, :2], axis=0)) > plate / 4 for m in pieces]
+    assert sum(big) <= 4
+
+
+@pytest.mark.parametrize("name", list(CORNERS))
+def test_corner_pieces_keep_the_clearance(name, tmp_path):
+    g = build_module(CORNERS[name])
+    rec = write_collision(tmp_path, g, insertion_travel(g))
+    assert rec["volume_ratio"] == pytest.approx(1.0, abs=1e-6)
+    assert abs(rec["clearance_m"] - g.params.clearance) <= 1e-6
+    assert abs(rec["insertion_min_distance_m"] - g.params.clearance) <= 1e-6
+
+
+def test_piece_files_read_back(tmp_path):
+    g = build_module(CORNERS["32-gon"])
+    rec = write_collision(tmp_path, g, insertion_travel(g))
+    for name in rec["pieces"]:
+        tm = trimesh.load_mesh(tmp_path / name)
+        assert tm.is_watertight and tm.is_convex
+
+
+def test_piece_that_loses_clearance_is_refused():
+    from assetgen.checks import _distance, _fcl_object
+
+    g = build_module(CORNERS["32-gon"])
+    pieces = exact_pieces(g)
+    design = g.design_pose.matrix()
+    peg = _fcl_object(g.peg, design)
+    nearest = min(range(len(pieces)), key=lambda i: _distance(peg, _fcl_object(pieces[i])))
+    # Push the nearest piece 0.1 mm toward the peg's centre: it now eats into the clearance.
+    centre = design[:3, 3] + 0.5 * g.params.peg_height * design[:3, 2]
+    m = pieces[nearest]
+    direction = centre - m.vertices.mean(axis=0)
+    pieces[nearest] = type(m)(m.vertices + 1e-4 * direction / np.linalg.norm(direction), m.faces)
+    with pytest.raises(CheckError, match=r"lost\s+clearance"):
+        check_pieces(pieces, g.peg, g, insertion_travel(g))
+
+
+def test_coacd_output_is_rechecked_and_refused_when_it_loses_clearance(tmp_path):
+    """CoACD's approximate pieces fill part of a 1 mm gap: the module is refused clearly."""
+    from assetgen.coacd_decomposition import CoacdConfig, coacd_pieces
+
+    g = build_module(CORNERS["shortest peg shallowest hole"])
+    pieces = coacd_pieces(g.module, CoacdConfig(threshold=0.2, max_convex_hull=4))
+    assert pieces
+    with pytest.raises(CheckError, match="decomposition lost"):
+        check_pieces(pieces, g.peg, g, insertion_travel(g))
+
+
+def test_corrupt_collision_file_is_named(tmp_path):
+    f = tmp_path / "piece.stl"
+    f.write_bytes(b"\0" * 80 + (10).to_bytes(4, "little") + b"\0" * 20)
+    with pytest.raises(ValueError, match=r"piece\.stl: header says 10 triangles"):
+        read_stl_triangles_mm(f)
+
+
+def test_halfspace_vertices_of_a_cube():
+    eye = np.eye(3)
+    cube = np.vstack([np.column_stack([eye, np.ones(3)]), np.column_stack([-eye, np.ones(3)])])
+    (v,) = halfspace_vertices_batch([cube])
+    assert len(v) == 8 and np.allclose(np.abs(v), 1.0)
