@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -63,6 +64,8 @@ def cmd_sample(args: argparse.Namespace) -> int:
         )
     except (DatasetError, ParamError, ValueError) as e:
         return _err(str(e))
+    except OSError as e:
+        return _err(f"cannot write the dataset: {e}; choose another --out folder or free space")
     table = Table(title=f"dataset {root}", show_header=False)
     rate = s.generated / s.seconds if s.seconds > 0 else float("nan")
     for k, v in (
@@ -95,6 +98,105 @@ def _check_writable(root: Path) -> None:
         raise DatasetError(f"cannot write to {probe}: choose a folder you can write to (--out)")
 
 
+def _open_dataset(name: str):
+    from assetgen.dataset import resolve
+
+    root, _ = resolve(name)
+    return root
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from assetgen.dataset import DatasetError
+    from assetgen.dataset_check import check_dataset, repair
+
+    try:
+        root = _open_dataset(args.dataset)
+        report = check_dataset(root, geometry_checks=not args.hashes_only)
+    except DatasetError as e:
+        return _err(str(e))
+    table = Table(title=f"check {root}", show_header=False)
+    table.add_row("modules checked", str(report.checked))
+    table.add_row("missing", str(len(report.missing)))
+    table.add_row("corrupt", str(len(report.corrupt)))
+    table.add_row("stale", str(len(report.stale)))
+    table.add_row("manifest", report.manifest_error or "ok")
+    console.print(table)
+    for mid in report.missing[:20]:
+        console.print(f"[yellow]missing[/] {mid}", highlight=False)
+    for mid, why in list(report.corrupt.items())[:20]:
+        console.print(f"[red]corrupt[/] {mid}: {why}", highlight=False)
+    for mid in report.stale[:20]:
+        console.print(f"[yellow]stale[/] {mid}: made by another generator version", highlight=False)
+    if report.ok:
+        return 0
+    if not args.repair:
+        console.print("run `assetgen check DATASET --repair` to regenerate just these modules")
+        return 1
+    s = repair(root, report, workers=args.workers, progress=not args.quiet)
+    console.print(f"repaired {s.generated} module(s); {len(s.failures)} failed")
+    return 1 if s.failures else 0
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from assetgen.dataset import Dataset, DatasetError
+
+    try:
+        ds = Dataset(_open_dataset(args.dataset))
+    except DatasetError as e:
+        return _err(str(e))
+    if not len(ds):
+        return _err(f"{ds.root} holds no finished modules yet; run `assetgen sample` first")
+    params = [r["params"] for r in ds.records.values()]
+    table = Table(title=f"{ds.root}: {len(ds)} modules, spec {ds.spec.name!r}")
+    for col in ("parameter", "unit", "min", "median", "max"):
+        table.add_column(col)
+    units = {
+        "circumradius": ("mm", 1e3),
+        "peg_height": ("mm", 1e3),
+        "hole_x": ("mm", 1e3),
+        "hole_y": ("mm", 1e3),
+        "clearance": ("mm", 1e3),
+        "hole_tilt_x": ("deg", 57.29578),
+        "hole_tilt_y": ("deg", 57.29578),
+        "hole_yaw": ("deg", 57.29578),
+        "squash_angle": ("deg", 57.29578),
+    }
+    for key in params[0]:
+        v = np.array([p[key] for p in params], float)
+        unit, scale = units.get(key, ("", 1.0))
+        v = v * scale
+        table.add_row(key, unit, f"{v.min():.3g}", f"{np.median(v):.3g}", f"{v.max():.3g}")
+    console.print(table)
+    counts = {}
+    for p in params:
+        counts[p["n_vertices"]] = counts.get(p["n_vertices"], 0) + 1
+    console.print(
+        "cross-section vertices: " + ", ".join(f"{k}: {counts[k]}" for k in sorted(counts)),
+        highlight=False,
+    )
+    gaps = np.array([r["checks"]["clearance_m"] for r in ds.records.values()]) * 1e3
+    console.print(f"measured clearance: {gaps.min():.6f} - {gaps.max():.6f} mm", highlight=False)
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "assets":
+        from assetgen.bench import bench_assets
+
+        result = bench_assets(n=args.n, workers=args.workers)
+    else:
+        return _err(f"unknown benchmark {args.what!r}; valid: assets")
+    table = Table(title=f"bench {args.what}", show_header=False)
+    for k, v in result.items():
+        table.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
+    console.print(table)
+    if args.json:
+        print(json.dumps(result))
+    return 0
+
+
 # ----------------------------------------------------------------------------- main
 
 
@@ -115,6 +217,25 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--overwrite", action="store_true", help="replace a dataset of another spec")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=cmd_sample)
+
+    c = sub.add_parser("check", help="re-verify a dataset's files and checks")
+    c.add_argument("dataset", help="spec name (train, test) or dataset folder")
+    c.add_argument("--repair", action="store_true", help="regenerate missing/corrupt/stale")
+    c.add_argument("--hashes-only", action="store_true", help="skip re-running the geometry checks")
+    c.add_argument("--workers", type=int, default=None)
+    c.add_argument("--quiet", action="store_true")
+    c.set_defaults(func=cmd_check)
+
+    i = sub.add_parser("info", help="summary of a dataset's parameter distributions")
+    i.add_argument("dataset", help="spec name or dataset folder")
+    i.set_defaults(func=cmd_info)
+
+    b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
+    b.add_argument("what", choices=["assets"], help="what to measure")
+    b.add_argument("--n", type=int, default=256, help="modules (assets)")
+    b.add_argument("--workers", type=int, default=None)
+    b.add_argument("--json", action="store_true", help="print the figures as JSON last")
+    b.set_defaults(func=cmd_bench)
     return p
 
 

@@ -1,0 +1,85 @@
+"""CLI smoke runs on tiny datasets, and the errors users see for bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run(*args: str, check: bool = False) -> subprocess.CompletedProcess:
+    p = subprocess.run(
+        [sys.executable, "-m", "cli", *args], cwd=ROOT, capture_output=True, text=True,
+        env={**os.environ, "COLUMNS": "120"},
+    )
+    if check:
+        assert p.returncode == 0, p.stdout + p.stderr
+    return p
+
+
+def test_sample_prints_summary(tmp_path):
+    p = run("sample", "--n", "3", "--seed", "5", "--out", str(tmp_path / "d"), "--quiet",
+            check=True)
+    assert "generated" in p.stdout and "clearance min" in p.stdout and "failed" in p.stdout
+    assert sorted(d.name for d in (tmp_path / "d" / "modules").iterdir()) == [
+        "000005", "000006", "000007"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--n", "0"], "ask for at least 1 module"),
+        (["--n", "2", "--clearance-mm", "0"], "clearance = 0 m must be positive"),
+        (["--n", "2", "--clearance-mm", "nan"], "clearance = nan is not a finite number"),
+        (["--n", "2", "--formats", "obj"], "unknown export format"),
+    ],
+)
+def test_sample_bad_input(tmp_path, args, message):
+    out = tmp_path / "d"
+    p = run("sample", "--out", str(out), "--quiet", *args)
+    assert p.returncode != 0
+    assert message in (p.stdout + p.stderr).replace("\n", " ")
+    assert not (out / "modules").exists() or not any((out / "modules").iterdir())
+
+
+def test_unwritable_output_folder(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        if os.access(locked, os.W_OK):  # root ignores permissions: nothing to test
+            pytest.skip("running as a user that can write anywhere")
+        p = run("sample", "--n", "1", "--out", str(locked / "d"), "--quiet")
+        assert p.returncode != 0 and "cannot write" in p.stderr
+    finally:
+        locked.chmod(0o700)
+
+
+def test_output_path_is_a_file(tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    p = run("sample", "--n", "1", "--out", str(f / "d"), "--quiet")
+    assert p.returncode != 0 and "cannot write the dataset" in p.stderr
+    assert f.read_text() == "x"
+
+
+def test_check_info_bench(tiny_dataset):
+    p = run("check", str(tiny_dataset), check=True)
+    assert "missing" in p.stdout
+    p = run("info", str(tiny_dataset), check=True)
+    assert "circumradius" in p.stdout and "measured clearance" in p.stdout
+    p = run("bench", "assets", "--n", "4", "--workers", "1", "--json", check=True)
+    figures = json.loads(p.stdout.strip().splitlines()[-1])
+    assert figures["modules"] == 4 and figures["failed"] == 0 and figures["modules_per_s"] > 0
+
+
+def test_unknown_dataset_name():
+    p = run("info", "no_such_dataset")
+    assert p.returncode != 0 and "no dataset spec named" in p.stderr
