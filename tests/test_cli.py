@@ -15,7 +15,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def run(*args: str, check: bool = False) -> subprocess.CompletedProcess:
     p = subprocess.run(
-        [sys.executable, "-m", "cli", *args], cwd=ROOT, capture_output=True, text=True,
+        [sys.executable, "-m", "cli", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
         env={**os.environ, "COLUMNS": "120"},
     )
     if check:
@@ -24,11 +27,14 @@ def run(*args: str, check: bool = False) -> subprocess.CompletedProcess:
 
 
 def test_sample_prints_summary(tmp_path):
-    p = run("sample", "--n", "3", "--seed", "5", "--out", str(tmp_path / "d"), "--quiet",
-            check=True)
+    p = run(
+        "sample", "--n", "3", "--seed", "5", "--out", str(tmp_path / "d"), "--quiet", check=True
+    )
     assert "generated" in p.stdout and "clearance min" in p.stdout and "failed" in p.stdout
     assert sorted(d.name for d in (tmp_path / "d" / "modules").iterdir()) == [
-        "000005", "000006", "000007"
+        "000005",
+        "000006",
+        "000007",
     ]
 
 

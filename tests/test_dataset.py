@@ -45,8 +45,19 @@ def test_two_runs_are_byte_identical(tmp_path, tiny_dataset):
 def test_kill_and_resume_equals_uninterrupted(tmp_path, tiny_dataset):
     out = tmp_path / "killed"
     n = TINY_SEEDS
-    cmd = [sys.executable, "-m", "cli", "sample", "--n", str(n), "--out", str(out),
-           "--workers", "1", "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "cli",
+        "sample",
+        "--n",
+        str(n),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
     proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True)
     deadline = time.time() + 120
     while time.time() < deadline:
@@ -74,14 +85,14 @@ def test_cached_rerun_generates_nothing(tiny_dataset):
 
 def test_mismatched_spec_is_refused(tiny_dataset):
     other = replace(_spec(TINY_SEEDS, name="tiny"), config=replace(SamplerConfig(), taper=(0, 0.1)))
-    with pytest.raises(DatasetError, match="different spec.*--overwrite"):
+    with pytest.raises(DatasetError, match=r"different spec.*--overwrite"):
         generate(tiny_dataset, other, progress=False)
 
 
 def test_foreign_folder_is_refused(tmp_path):
     (tmp_path / "x").mkdir()
     (tmp_path / "x" / "notes.txt").write_text("mine")
-    with pytest.raises(DatasetError, match="not empty and holds no dataset.json"):
+    with pytest.raises(DatasetError, match=r"not empty and holds no dataset\.json"):
         generate(tmp_path / "x", _spec(2), progress=False)
     assert (tmp_path / "x" / "notes.txt").read_text() == "mine"
 
@@ -136,7 +147,7 @@ def test_loader_api(tiny_dataset):
 
 
 def test_resolve_names_and_paths(tmp_path):
-    root, spec = resolve("train")
+    _, spec = resolve("train")
     assert spec is not None and spec.count == 1024 and spec.seed_start == 0
     _, test_spec = resolve("test")
     assert test_spec.seed_start == 2048 and test_spec.count == 1024
