@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import fcl
 import numpy as np
-import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import ConvexHull
 
 from assetgen.frames import Frame
 from assetgen.mesh import Mesh
@@ -25,17 +27,46 @@ class CheckError(RuntimeError):
 
 
 def topology(mesh: Mesh) -> dict:
-    """Watertightness, winding, bodies, genus and volume (m^3) of a closed mesh."""
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    euler = int(tm.euler_number)
+    """Watertightness, winding, bodies, genus and volume (m^3) of a triangle mesh.
+
+    Closed and consistently oriented <=> every directed edge appears once and its reverse
+    once; genus from Euler's formula V - E + F = 2 - 2g per body.
+    """
+    f = mesh.faces
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    key = directed[:, 0].astype(np.int64) * len(mesh.vertices) + directed[:, 1]
+    rev = directed[:, 1].astype(np.int64) * len(mesh.vertices) + directed[:, 0]
+    unique_directed = len(np.unique(key)) == len(key)
+    watertight = unique_directed and np.isin(rev, key).all()
+    undirected = np.unique(np.sort(directed, axis=1), axis=0)
+    used = np.unique(f)
+    n_v, n_e, n_f = len(used), len(undirected), len(f)
+    graph = coo_matrix(
+        (np.ones(len(undirected)), (undirected[:, 0], undirected[:, 1])),
+        shape=(len(mesh.vertices),) * 2,
+    )
+    bodies = connected_components(graph, directed=False)[1][used]
+    n_bodies = len(np.unique(bodies))
+    tri = mesh.vertices[f]
+    volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0
     return {
-        "watertight": bool(tm.is_watertight),
-        "winding_consistent": bool(tm.is_winding_consistent),
-        "bodies": int(tm.body_count),
-        "genus": (2 - euler) // 2,
-        "volume_m3": float(tm.volume),
-        "triangles": len(tm.faces),
+        "watertight": bool(watertight),
+        "winding_consistent": bool(unique_directed),
+        "bodies": int(n_bodies),
+        "genus": int((2 * n_bodies - (n_v - n_e + n_f)) // 2),
+        "volume_m3": float(volume),
+        "triangles": int(n_f),
     }
+
+
+def is_convex(mesh: Mesh, tol: float = 1e-7) -> bool:
+    """Every vertex on or behind every face plane (outward normals), within `tol` m (float32
+    STL coordinates put coplanar fan vertices a few nm off their face planes)."""
+    tri = mesh.vertices[mesh.faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    height = np.einsum("fk,fvk->fv", n, mesh.vertices[None, :, :] - tri[:, None, 0, :])
+    return bool(height.max() <= tol)
 
 
 def _fcl_object(mesh: Mesh, matrix: np.ndarray | None = None) -> fcl.CollisionObject:
@@ -58,8 +89,8 @@ def _swept_hull(peg: Mesh, start: np.ndarray, end: np.ndarray) -> Mesh:
     is the convex hull of the body at both ends: one exact distance query covers the path.
     """
     pts = np.vstack([peg.transformed(start).vertices, peg.transformed(end).vertices])
-    hull = trimesh.convex.convex_hull(pts)
-    return Mesh(np.asarray(hull.vertices), np.asarray(hull.faces, np.int64))
+    # Orientation of the hull's triangles does not matter to a distance query.
+    return Mesh(pts, ConvexHull(pts).simplices.astype(np.int64))
 
 
 def clearance_checks(
@@ -98,7 +129,7 @@ def verify(peg: Mesh, module: Mesh, design: Frame, clearance: float, travel: flo
     Returns every measured value (for module.json).
     """
     peg_t = topology(peg)
-    peg_t["convex"] = bool(trimesh.Trimesh(peg.vertices, peg.faces, process=False).is_convex)
+    peg_t["convex"] = is_convex(peg)
     mod_t = topology(module)
     for name, t in (("peg", peg_t), ("module", mod_t)):
         if not (t["watertight"] and t["winding_consistent"]):

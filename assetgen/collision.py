@@ -8,7 +8,6 @@ whose collision geometry comes nearer the seated peg than the clearance is refus
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
@@ -17,7 +16,8 @@ from assetgen.coacd_decomposition import coacd_pieces
 from assetgen.decomposition import exact_pieces
 from assetgen.geometry import ModuleGeometry
 from assetgen.mesh import Mesh
-from assetgen.stl import read_stl_triangles_mm, stl_bytes
+from assetgen.module_writer import ExportContext
+from assetgen.stl import parse_stl_triangles_mm, stl_bytes
 
 DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
     "exact": exact_pieces,
@@ -57,18 +57,18 @@ def check_pieces(pieces: list[Mesh], peg: Mesh, geom: ModuleGeometry, travel: fl
     return {"clearance_m": gap, "insertion_min_distance_m": insertion}
 
 
-def write_collision(
-    folder: Path, geom: ModuleGeometry, travel: float, method: str = "exact"
-) -> dict:
-    """Decompose, write collision/piece_XXX.stl (mm), read back and check; return a record."""
+def write_collision(ctx: ExportContext, travel: float, method: str = "exact") -> dict:
+    """Decompose, write collision/piece_XXX.stl (mm) and check the pieces as written (their
+    float32 millimetre bytes parsed back); return a record for module.json."""
     if method not in DECOMPOSERS:
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
+    geom = ctx.geometry
     pieces = DECOMPOSERS[method](geom)
-    (folder / "collision").mkdir(exist_ok=True)
     names = [piece_name(i) for i in range(len(pieces))]
-    for name, m in zip(names, pieces, strict=True):
-        (folder / name).write_bytes(stl_bytes(m))
-    tris = [read_stl_triangles_mm(folder / n) for n in names]
+    tris = [
+        parse_stl_triangles_mm(ctx.write(n, stl_bytes(m)), n)
+        for n, m in zip(names, pieces, strict=True)
+    ]
     back = [Mesh(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in tris]
     gaps = check_pieces(back, geom.peg, geom, travel)
     volume = float(sum(_volume(m) for m in pieces))

@@ -12,9 +12,7 @@ NEEDS_COLLISION = {"mjcf", "usd"}
 
 
 def _collision(ctx: ExportContext) -> None:
-    ctx.record["collision"] = write_collision(
-        ctx.folder, ctx.geometry, insertion_travel(ctx.geometry)
-    )
+    ctx.record["collision"] = write_collision(ctx, insertion_travel(ctx.geometry))
 
 
 EXPORTERS["collision"] = _collision

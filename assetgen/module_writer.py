@@ -12,7 +12,7 @@ import json
 import os
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,7 @@ from assetgen.checks import CheckError, verify
 from assetgen.geometry import ModuleGeometry, build_module
 from assetgen.params import ModuleParams, ParamError
 from assetgen.sampler import SamplerConfig, sample_params
-from assetgen.stl import read_stl_mm, stl_bytes
+from assetgen.stl import parse_stl_mm, stl_bytes
 from assetgen.threemf import threemf_bytes
 
 PEG_MASS = 0.2
@@ -49,6 +49,24 @@ class ExportContext:
     geometry: ModuleGeometry
     record: dict
     """module.json being assembled; exporters add their own sections."""
+    hashes: dict[str, str] = field(default_factory=dict)
+    """sha256 of every file written so far, by path relative to the folder."""
+
+    def write(self, name: str, data: bytes) -> bytes:
+        """Write `data` to folder/name and record its hash; return the bytes written.
+
+        Checks parse these returned bytes, exactly what is on disk, rather than reading the
+        file again: on this kind of file system an open costs as much as a whole piece.
+        """
+        path = self.folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        self.hashes[name] = hashlib.sha256(data).hexdigest()
+        return data
+
+    def add_file(self, name: str) -> None:
+        """Record the hash of a file an exporter wrote itself."""
+        self.hashes[name] = sha256(self.folder / name)
 
 
 Exporter = Callable[[ExportContext], None]
@@ -139,36 +157,35 @@ def write_module(
     try:
         geom = build_module(params)
         tmp.mkdir(parents=True)
-        (tmp / "peg.stl").write_bytes(stl_bytes(geom.peg))
-        (tmp / "module.stl").write_bytes(stl_bytes(geom.module))
+        ctx = ExportContext(tmp, geom, {})
         checks = verify(
-            read_stl_mm(tmp / "peg.stl"),
-            read_stl_mm(tmp / "module.stl"),
+            parse_stl_mm(ctx.write("peg.stl", stl_bytes(geom.peg))),
+            parse_stl_mm(ctx.write("module.stl", stl_bytes(geom.module))),
             geom.design_pose,
             params.clearance,
             insertion_travel(geom),
         )
-        (tmp / "peg_in_hole.3mf").write_bytes(threemf_bytes(geom.peg, geom.module))
-        record = {
-            "id": mid,
-            "seed": seed,
-            "generator_version": GENERATOR_VERSION,
-            "params": params.to_json(),
-            "clearance": params.clearance,
-            "frames": {
-                "entrance": geom.entrance.to_json(),
-                "bottom": geom.bottom.to_json(),
-                "design_pose": geom.design_pose.to_json(),
-            },
-            "peg": peg_mass_properties(geom),
-            "checks": checks,
-        }
-        ctx = ExportContext(tmp, geom, record)
+        ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, geom.module))
+        ctx.record.update(
+            {
+                "id": mid,
+                "seed": seed,
+                "generator_version": GENERATOR_VERSION,
+                "params": params.to_json(),
+                "clearance": params.clearance,
+                "frames": {
+                    "entrance": geom.entrance.to_json(),
+                    "bottom": geom.bottom.to_json(),
+                    "design_pose": geom.design_pose.to_json(),
+                },
+                "peg": peg_mass_properties(geom),
+                "checks": checks,
+            }
+        )
         for f in formats:
             EXPORTERS[f](ctx)
-        record["files"] = {
-            str(p.relative_to(tmp)): sha256(p) for p in sorted(tmp.rglob("*")) if p.is_file()
-        }
+        record = ctx.record
+        record["files"] = dict(sorted(ctx.hashes.items()))
         write_json(tmp / "module.json", _round(record))
         os.replace(tmp, final)
         return record

@@ -25,14 +25,16 @@ def stl_bytes(mesh: Mesh, scale: float = 1000.0) -> bytes:
 
 
 def read_stl_mm(path: Path) -> Mesh:
-    """Read a binary STL written in millimetres back as a Mesh in metres (vertices merged).
+    """Read a binary STL in millimetres back as a Mesh in metres (see parse_stl_mm)."""
+    return parse_stl_mm(Path(path).read_bytes(), str(path))
 
-    Independent of the writer above: parsing, merging and checks go through trimesh.
-    """
-    import trimesh
 
-    tm = trimesh.load_mesh(str(path), file_type="stl", process=True)
-    return Mesh(np.asarray(tm.vertices) / 1000.0, np.asarray(tm.faces, np.int64))
+def parse_stl_mm(data: bytes, name: str = "STL") -> Mesh:
+    """Binary STL bytes in millimetres as a Mesh in metres, merging vertices stored with
+    identical coordinates (what a slicer or a mesh library does on load)."""
+    tri = parse_stl_triangles_mm(data, name)
+    vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+    return Mesh(vertices, faces.reshape(-1, 3).astype(np.int64))
 
 
 def read_stl_triangles_mm(path: Path) -> np.ndarray:
@@ -41,7 +43,11 @@ def read_stl_triangles_mm(path: Path) -> np.ndarray:
     A plain numpy parse for the many small collision pieces, where a triangle soup is all a
     distance query needs; raises ValueError naming the file if it is not a whole binary STL.
     """
-    data = Path(path).read_bytes()
+    return parse_stl_triangles_mm(Path(path).read_bytes(), str(path))
+
+
+def parse_stl_triangles_mm(data: bytes, path: str = "STL") -> np.ndarray:
+    """Triangles (m, 3, 3) in metres from binary STL bytes in millimetres (see above)."""
     if len(data) < 84:
         raise ValueError(f"{path}: {len(data)} bytes is too short for a binary STL")
     n = int(np.frombuffer(data, "<u4", 1, 80)[0])

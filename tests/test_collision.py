@@ -10,7 +10,7 @@ from assetgen.checks import CheckError
 from assetgen.collision import check_pieces, write_collision
 from assetgen.decomposition import exact_pieces, halfspace_vertices_batch
 from assetgen.geometry import build_module
-from assetgen.module_writer import insertion_travel
+from assetgen.module_writer import ExportContext, insertion_travel
 from assetgen.sampler import SamplerConfig, sample_params
 from assetgen.stl import read_stl_triangles_mm
 
@@ -37,7 +37,7 @@ def test_exact_pieces_are_convex_and_add_up_to_the_module(seed):
 @pytest.mark.parametrize("name", list(CORNERS))
 def test_corner_pieces_keep_the_clearance(name, tmp_path):
     g = build_module(CORNERS[name])
-    rec = write_collision(tmp_path, g, insertion_travel(g))
+    rec = write_collision(ExportContext(tmp_path, g, {}), insertion_travel(g))
     assert rec["volume_ratio"] == pytest.approx(1.0, abs=1e-6)
     assert abs(rec["clearance_m"] - g.params.clearance) <= 1e-6
     assert abs(rec["insertion_min_distance_m"] - g.params.clearance) <= 1e-6
@@ -45,7 +45,7 @@ def test_corner_pieces_keep_the_clearance(name, tmp_path):
 
 def test_piece_files_read_back(tmp_path):
     g = build_module(CORNERS["32-gon"])
-    rec = write_collision(tmp_path, g, insertion_travel(g))
+    rec = write_collision(ExportContext(tmp_path, g, {}), insertion_travel(g))
     for name in rec["pieces"]:
         tm = trimesh.load_mesh(tmp_path / name)
         assert tm.is_watertight and tm.is_convex
