@@ -63,14 +63,8 @@ def halfspace_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> l
     x = (d[..., 0:1] * bc + d[..., 1:2] * ca + d[..., 2:3] * ab) / safe  # (S, T, 3)
     slack = np.einsum("stk,smk->stm", x, planes[..., :3]) - planes[:, None, :, 3]
     keep = ok & np.all(slack <= tol, axis=2)
-    out = []
-    for i in range(len(systems)):
-        v = x[i, keep[i]]
-        if len(v):
-            _, first = np.unique(np.round(v, 11), axis=0, return_index=True)
-            v = v[np.sort(first)]
-        out.append(v)
-    return out
+    # Vertices where more than three planes meet come out several times; the hull merges them.
+    return [x[i, keep[i]] for i in range(len(systems))]
 
 
 def _incidence(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -111,6 +105,7 @@ def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 def _mesh(vertices: np.ndarray) -> Mesh | None:
+    """The convex hull of `vertices` as an outward-oriented mesh, or None if it has no volume."""
     if len(vertices) < 4:
         return None
     try:
@@ -119,15 +114,15 @@ def _mesh(vertices: np.ndarray) -> Mesh | None:
         return None
     if hull.volume < MIN_PIECE_VOLUME:
         return None
-    faces = hull.simplices.copy()
-    # qhull's simplices are unoriented: turn each to face away from the centroid.
-    c = vertices[hull.vertices].mean(axis=0)
+    faces = hull.simplices
+    # qhull's simplices are unoriented; its facet equations give the outward normals.
     tri = vertices[faces]
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    flip = np.einsum("ij,ij->i", normal, tri[:, 0] - c) < 0
-    faces[flip] = faces[flip][:, ::-1]
-    used, inverse = np.unique(faces, return_inverse=True)
-    return Mesh(vertices[used], inverse.reshape(-1, 3).astype(np.int64))
+    flip = np.einsum("ij,ij->i", normal, hull.equations[:, :3]) < 0
+    faces = np.where(flip[:, None], faces[:, ::-1], faces)
+    remap = np.empty(len(vertices), np.int64)
+    remap[hull.vertices] = np.arange(len(hull.vertices))
+    return Mesh(vertices[hull.vertices], remap[faces])
 
 
 def local_footprint(geom: ModuleGeometry) -> tuple[np.ndarray, np.ndarray]:
