@@ -14,7 +14,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
 from assetgen.frames import Frame
-from assetgen.mesh import Mesh
+from assetgen.mesh import Mesh, cross3
 
 CLEARANCE_TOLERANCE = 1e-6
 """Allowed |measured - nominal| clearance, m (1 um)."""
@@ -48,7 +48,7 @@ def topology(mesh: Mesh) -> dict:
     bodies = connected_components(graph, directed=False)[1][used]
     n_bodies = len(np.unique(bodies))
     tri = mesh.vertices[f]
-    volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0
+    volume = np.einsum("ij,ij->i", tri[:, 0], cross3(tri[:, 1], tri[:, 2])).sum() / 6.0
     return {
         "watertight": bool(watertight),
         "winding_consistent": bool(unique_directed),
@@ -63,7 +63,7 @@ def is_convex(mesh: Mesh, tol: float = 1e-7) -> bool:
     """Every vertex on or behind every face plane (outward normals), within `tol` m (float32
     STL coordinates put coplanar fan vertices a few nm off their face planes)."""
     tri = mesh.vertices[mesh.faces]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     height = np.einsum("fk,fvk->fv", n, mesh.vertices[None, :, :] - tri[:, None, 0, :])
     return bool(height.max() <= tol)

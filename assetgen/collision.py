@@ -15,7 +15,7 @@ from assetgen.checks import CLEARANCE_TOLERANCE, CheckError, _distance, _fcl_obj
 from assetgen.coacd_decomposition import coacd_pieces
 from assetgen.decomposition import exact_pieces
 from assetgen.geometry import ModuleGeometry
-from assetgen.mesh import Mesh
+from assetgen.mesh import Mesh, cross3
 from assetgen.module_writer import ExportContext
 from assetgen.stl import parse_stl_triangles_mm, stl_bytes
 
@@ -88,4 +88,4 @@ def write_collision(ctx: ExportContext, travel: float, method: str = "exact") ->
 
 def _volume(m: Mesh) -> float:
     t = m.vertices[m.faces]
-    return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)
+    return float(np.einsum("ij,ij->i", t[:, 0], cross3(t[:, 1], t[:, 2])).sum() / 6.0)

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from assetgen.geometry import ModuleGeometry
-from assetgen.mesh import Mesh
+from assetgen.mesh import Mesh, cross3
 from assetgen.polytope import (
     interior_point,
     offset_planes,
@@ -54,9 +54,9 @@ def halfspace_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> l
     idx = _triples(m)
     n = planes[:, idx, :3]  # (S, T, 3, 3)
     d = planes[:, idx, 3]  # (S, T, 3)
-    bc = np.cross(n[..., 1, :], n[..., 2, :])
-    ca = np.cross(n[..., 2, :], n[..., 0, :])
-    ab = np.cross(n[..., 0, :], n[..., 1, :])
+    bc = cross3(n[..., 1, :], n[..., 2, :])
+    ca = cross3(n[..., 2, :], n[..., 0, :])
+    ab = cross3(n[..., 0, :], n[..., 1, :])
     det = np.einsum("stk,stk->st", n[..., 0, :], bc)
     ok = np.abs(det) > 1e-12
     safe = np.where(ok, det, 1.0)[..., None]
@@ -117,7 +117,7 @@ def _mesh(vertices: np.ndarray) -> Mesh | None:
     faces = hull.simplices
     # qhull's simplices are unoriented; its facet equations give the outward normals.
     tri = vertices[faces]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     flip = np.einsum("ij,ij->i", normal, hull.equations[:, :3]) < 0
     faces = np.where(flip[:, None], faces[:, ::-1], faces)
     remap = np.empty(len(vertices), np.int64)

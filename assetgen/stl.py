@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.mesh import Mesh
+from assetgen.mesh import Mesh, cross3
 
 HEADER = b"assetgen binary STL; units: millimetres".ljust(80, b" ")
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
@@ -15,7 +15,7 @@ _RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2
 def stl_bytes(mesh: Mesh, scale: float = 1000.0) -> bytes:
     """The mesh (metres) as binary STL bytes in millimetres (`scale` = mm per m)."""
     tri = mesh.vertices[mesh.faces] * scale
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(normal, axis=1, keepdims=True)
     normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
     rec = np.zeros(len(tri), dtype=_RECORD)
