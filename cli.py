@@ -185,7 +185,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "assets":
         from assetgen.bench import bench_assets
 
-        result = bench_assets(n=args.n, workers=args.workers)
+        result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
     else:
         return _err(f"unknown benchmark {args.what!r}; valid: assets")
     table = Table(title=f"bench {args.what}", show_header=False)
@@ -235,6 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--n", type=int, default=256, help="modules (assets)")
     b.add_argument("--workers", type=int, default=None)
     b.add_argument("--json", action="store_true", help="print the figures as JSON last")
+    b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
     b.set_defaults(func=cmd_bench)
     return p
 
