@@ -64,6 +64,7 @@ def write_collision(ctx: ExportContext, travel: float, method: str = "exact") ->
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
     geom = ctx.geometry
     pieces = DECOMPOSERS[method](geom)
+    ctx.pieces = pieces
     names = [piece_name(i) for i in range(len(pieces))]
     tris = [
         parse_stl_triangles_mm(ctx.write(n, stl_bytes(m)), n)

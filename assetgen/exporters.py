@@ -5,17 +5,41 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from assetgen.collision import write_collision
 from assetgen.module_writer import EXPORTERS, ExportContext, insertion_travel
 
 NEEDS_COLLISION = {"mjcf", "usd"}
+USD_FILE = "peg_in_hole.usda"
+MJCF_FILE = "peg_in_hole.xml"
 
 
 def _collision(ctx: ExportContext) -> None:
     ctx.record["collision"] = write_collision(ctx, insertion_travel(ctx.geometry))
 
 
+def _usd(ctx: ExportContext) -> None:
+    from assetgen.frames import Frame
+    from assetgen.usd_export import usda_text
+
+    g, peg = ctx.geometry, ctx.record["peg"]
+    text = usda_text(
+        peg=g.peg,
+        module=g.module,
+        pieces=ctx.pieces or [],
+        entrance=g.entrance,
+        bottom=g.bottom,
+        peg_pose=Frame.from_json(ctx.record["frames"]["design_pose"]),
+        peg_mass=peg["mass_kg"],
+        peg_com=np.array(peg["com_m"]),
+        peg_inertia=np.array(peg["inertia_kg_m2"]),
+    )
+    ctx.write(USD_FILE, text.encode())
+
+
 EXPORTERS["collision"] = _collision
+EXPORTERS["usd"] = _usd
 
 
 def available_formats() -> tuple[str, ...]:

@@ -51,6 +51,8 @@ class ExportContext:
     """module.json being assembled; exporters add their own sections."""
     hashes: dict[str, str] = field(default_factory=dict)
     """sha256 of every file written so far, by path relative to the folder."""
+    pieces: list | None = None
+    """The convex collision pieces (module frame, m) once the `collision` step has run."""
 
     def write(self, name: str, data: bytes) -> bytes:
         """Write `data` to folder/name and record its hash; return the bytes written.
