@@ -58,7 +58,9 @@ def halfspace_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> l
     ca = cross3(n[..., 2, :], n[..., 0, :])
     ab = cross3(n[..., 0, :], n[..., 1, :])
     det = np.einsum("stk,stk->st", n[..., 0, :], bc)
-    ok = np.abs(det) > 1e-12
+    # |det| is the conditioning of the triple (unit normals): near-parallel triples give
+    # vertices off by eps / |det|; genuine vertices also come from well-conditioned triples.
+    ok = np.abs(det) > 1e-6
     safe = np.where(ok, det, 1.0)[..., None]
     x = (d[..., 0:1] * bc + d[..., 1:2] * ca + d[..., 2:3] * ab) / safe  # (S, T, 3)
     slack = np.einsum("stk,smk->stm", x, planes[..., :3]) - planes[:, None, :, 3]
