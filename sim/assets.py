@@ -1,0 +1,154 @@
+"""What the simulator reads from a dataset: module.json and the STL files, nothing else.
+
+sim/ never calls the geometry code (design.md): a module is its frames, its peg's mass
+properties, the peg mesh and the convex collision pieces, all as written on disk. Every file
+is checked here, before any simulation, so a missing or corrupt dataset fails with one clear
+message naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sim.rotations import quat_to_matrix
+
+_STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+
+
+class AssetError(RuntimeError):
+    """A dataset or module the simulator cannot use; the message names the file and the fix."""
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A triangle mesh in metres: `vertices` (n, 3) float, `faces` (m, 3) int."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+
+
+@dataclass(frozen=True)
+class ModuleAsset:
+    """One module as the simulator sees it (every array in SI units, module frame)."""
+
+    id: str
+    """Module id (folder name)."""
+    clearance: float
+    """Gap between peg and hole on every face in the design pose, metres."""
+    entrance: np.ndarray
+    """(4, 4) entrance frame in the module frame."""
+    bottom: np.ndarray
+    """(4, 4) bottom frame (a seated peg's frame) in the module frame."""
+    peg: Mesh
+    """Peg surface in the peg frame (origin at the bottom-face centre, z along the axis)."""
+    peg_mass: float
+    """Peg mass, kg."""
+    peg_com: np.ndarray
+    """(3,) peg centre of mass in the peg frame, metres."""
+    peg_inertia: np.ndarray
+    """(3, 3) peg inertia about its centre of mass in the peg frame, kg m^2."""
+    pieces: tuple[Mesh, ...]
+    """Convex collision pieces in the module frame; their union is the module."""
+
+
+def parse_stl(data: bytes, name: str) -> Mesh:
+    """Binary STL bytes in millimetres -> Mesh in metres (vertices merged where identical)."""
+    if len(data) < 84:
+        raise AssetError(f"{name}: {len(data)} bytes is too short for a binary STL")
+    n = int(np.frombuffer(data, "<u4", 1, 80)[0])
+    if n == 0 or len(data) != 84 + 50 * n:
+        raise AssetError(
+            f"{name}: header says {n} triangles but the file has {len(data)} bytes "
+            "(truncated, empty or not a binary STL); regenerate the module"
+        )
+    tri = np.frombuffer(data, _STL_RECORD, n, 84)["v"].astype(np.float64) / 1000.0
+    if not np.all(np.isfinite(tri)):
+        raise AssetError(f"{name}: holds non-finite coordinates; regenerate the module")
+    # merge identical vertices: unique over the rows' bytes (much faster than axis=0)
+    flat = np.ascontiguousarray(tri.reshape(-1, 3))
+    _, first, inverse = np.unique(
+        flat.view(np.dtype((np.void, 24))).ravel(), return_index=True, return_inverse=True
+    )
+    return Mesh(flat[first], inverse.reshape(-1, 3).astype(np.int32))
+
+
+def _frame(d: dict, name: str, where: Path) -> np.ndarray:
+    try:
+        pos = np.asarray(d["pos"], dtype=float)
+        quat = np.asarray(d["quat"], dtype=float)
+    except (KeyError, TypeError, ValueError) as e:
+        raise AssetError(f"{where}: frame {name!r} is malformed ({e})") from e
+    if pos.shape != (3,) or quat.shape != (4,) or not np.isfinite([*pos, *quat]).all():
+        raise AssetError(f"{where}: frame {name!r} needs pos (3) and quat (4), finite")
+    m = np.eye(4)
+    m[:3, :3] = quat_to_matrix(quat)
+    m[:3, 3] = pos
+    return m
+
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise AssetError(
+            f"{path}: cannot read ({e.strerror}); run `assetgen check` on the dataset"
+        ) from e
+
+
+def load_module(module_dir: Path | str) -> ModuleAsset:
+    """Read one module folder (module.json, peg.stl, the collision pieces) and check it."""
+    d = Path(module_dir)
+    meta_path = d / "module.json"
+    try:
+        meta = json.loads(_read(meta_path))
+        frames = meta["frames"]
+        peg = meta["peg"]
+        pieces = meta["collision"]["pieces"]
+        clearance = float(meta["clearance"])
+        mass = float(peg["mass_kg"])
+        com = np.asarray(peg["com_m"], dtype=float).reshape(3)
+        inertia = np.asarray(peg["inertia_kg_m2"], dtype=float).reshape(3, 3)
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise AssetError(f"{meta_path}: not valid JSON ({e}); regenerate the module") from e
+    except (KeyError, TypeError, ValueError) as e:
+        raise AssetError(
+            f"{meta_path}: missing or malformed {e}; the simulator needs frames, peg, "
+            "clearance and collision.pieces (generate with the `collision` format)"
+        ) from e
+    if not pieces:
+        raise AssetError(f"{meta_path}: no collision pieces; generate with `--formats collision`")
+    if mass <= 0 or not np.all(np.isfinite(inertia)) or np.linalg.eigvalsh(inertia).min() <= 0:
+        raise AssetError(f"{meta_path}: peg mass/inertia not positive")
+    return ModuleAsset(
+        id=str(meta.get("id", d.name)),
+        clearance=clearance,
+        entrance=_frame(frames.get("entrance", {}), "entrance", meta_path),
+        bottom=_frame(frames.get("bottom", {}), "bottom", meta_path),
+        peg=parse_stl(_read(d / "peg.stl"), str(d / "peg.stl")),
+        peg_mass=mass,
+        peg_com=com,
+        peg_inertia=inertia,
+        pieces=tuple(parse_stl(_read(d / p), str(d / p)) for p in pieces),
+    )
+
+
+def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleAsset]:
+    """Every module of a dataset folder (or the listed ids), checked before simulation."""
+    from assetgen.dataset import Dataset, DatasetError
+
+    try:
+        ds = Dataset(root)
+        wanted = ds.ids if ids is None else ids
+        dirs = [ds.module_dir(mid) for mid in wanted]
+    except DatasetError as e:
+        raise AssetError(str(e)) from e
+    if not dirs:
+        raise AssetError(
+            f"{root} holds no finished modules; generate some with "
+            "`assetgen sample --n N --out DIR --formats collision`"
+        )
+    return [load_module(p) for p in dirs]

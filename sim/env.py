@@ -1,0 +1,329 @@
+"""The peg-in-hole vector environment: numpy arrays of shape (num_envs, ...), automatic reset.
+
+Contract (what rl/ relies on):
+    env.num_envs, env.obs_dim (18), env.act_dim (6), env.control_dt (s)
+    env.reset(seed: int | None = None) -> obs (num_envs, 18) float32
+    env.step(actions (num_envs, 6)) -> obs, reward, terminated, truncated, info
+        obs         (num_envs, 18) float32; for an env whose episode just ended, the first
+                    observation of its next episode (automatic reset in the same step)
+        reward      (num_envs,) float64
+        terminated  (num_envs,) bool: success or failure
+        truncated   (num_envs,) bool: step limit reached, or the physics went unstable
+        info        dict of (num_envs, ...) arrays, valid where terminated | truncated:
+            final_obs        (num_envs, 18) float32: the last observation of that episode
+            success          (num_envs,) bool
+            failure          (num_envs,) bool
+            unstable         (num_envs,) bool: reset after non-finite physics (truncated)
+            episode_return   (num_envs,) float64
+            episode_length   (num_envs,) int64, control steps
+            time_to_success  (num_envs,) float64, seconds; NaN where not a success
+            module           (num_envs,) int64: index of the env's module in env.module_ids
+            peg_pose         (num_envs, 7) float64: true pose (position, quaternion w x y z)
+                             of the peg at the end of this step, before any reset; valid
+                             for every env (for recording episodes)
+Actions are clipped to [-1, 1] and scaled to max_lin_vel / max_ang_vel: the target linear
+and angular velocity of the peg's bottom-face centre in the module frame.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim import task as T
+from sim.assets import ModuleAsset, load_dataset
+from sim.batch import BatchSim
+from sim.config import TaskConfig
+from sim.rotations import matrix_to_quat
+from sim.scene import restitution_to_dampratio
+
+
+def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
+    """(num_envs,) module index per env: env i gets module i while there are enough; the
+    rest get modules in seeded random rounds (each module once per round)."""
+    if num_envs <= num_modules:
+        return np.arange(num_envs)
+    rng = np.random.default_rng(seed)
+    extra = np.concatenate(
+        [rng.permutation(num_modules) for _ in range(-(-(num_envs - num_modules) // num_modules))]
+    )
+    return np.concatenate([np.arange(num_modules), extra[: num_envs - num_modules]])
+
+
+class PegInHoleVecEnv:
+    """`num_envs` peg-in-hole environments over the modules of a dataset (see module doc)."""
+
+    obs_dim = T.OBS_DIM
+    act_dim = T.ACT_DIM
+
+    def __init__(
+        self,
+        dataset: str | Path | list[ModuleAsset],
+        num_envs: int | None = None,
+        config: TaskConfig | None = None,
+        *,
+        module_ids: list[str] | None = None,
+        assignment_seed: int = 0,
+        nthread: int | None = None,
+        shard_size: int = 8,
+    ) -> None:
+        self.cfg = (config or TaskConfig()).validate()
+        modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
+        if not modules:
+            raise ValueError("no modules given: pass a dataset folder or a non-empty list")
+        self.num_envs = len(modules) if num_envs is None else int(num_envs)
+        if self.num_envs < 1:
+            raise ValueError(f"num_envs = {num_envs}: need at least 1 environment")
+        self.modules = modules
+        self.module_ids = [m.id for m in modules]
+        self.env_module = assign_modules(len(modules), self.num_envs, assignment_seed)
+        assets = [modules[k] for k in self.env_module]
+        self.sim = BatchSim(assets, self.cfg, nthread, shard_size)
+        self.control_dt = self.cfg.control_dt
+
+        # per-env constants
+        self.entrance = np.stack([a.entrance for a in assets])
+        self.bottom = np.stack([a.bottom for a in assets])
+        self.entrance_inv = T.inverse(self.entrance)
+        self.bottom_inv = T.inverse(self.bottom)
+        nv = max(len(a.peg.vertices) for a in assets)
+        # vertices padded to a common count by repeating the first (same min/any results)
+        verts = [a.peg.vertices for a in assets]
+        self.peg_vertices = np.stack(
+            [np.concatenate([v, np.repeat(v[:1], nv - len(v), 0)]) for v in verts]
+        )
+        self.peg_reach = np.linalg.norm(self.peg_vertices, axis=2).max(axis=1)
+        # a point below the surface within this distance of the hole axis is in the hole
+        radius = [np.linalg.norm(a.peg.vertices[:, :2], axis=1).max() for a in assets]
+        self.hole_radius = np.array(radius) + np.array([a.clearance for a in assets]) + 0.001
+
+        n = self.num_envs
+        self.global_step = 0
+        """Environment steps taken so far, summed over envs (drives the curriculum)."""
+        self.unstable_count = 0
+        """Episodes cut short because their physics went unstable."""
+        self.rng = np.random.default_rng()
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._return = np.zeros(n)
+        self._c_prev = np.zeros(n)
+        self._d0 = np.ones(n)
+        self._obs = np.zeros((n, T.OBS_DIM), dtype=np.float32)
+
+    # ------------------------------------------------------------------ helpers
+
+    def curriculum_scale(self) -> float:
+        """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
+        if self.cfg.curriculum_steps <= 0:
+            return 1.0
+        return min(1.0, self.global_step / self.cfg.curriculum_steps)
+
+    def peg_poses(self) -> np.ndarray:
+        """(num_envs, 4, 4) true peg poses in the module frame."""
+        return T.pose(self.sim.peg_pos, self.sim.peg_quat)
+
+    def _observe(self, peg: np.ndarray, idx: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Observations of envs idx from their true poses peg (len(idx), 4, 4)."""
+        if self.cfg.noise:
+            peg = T.perturb(peg, self.rng, self.cfg.obs_pos_noise, self.cfg.obs_rot_noise)
+        return T.observe(peg, self.entrance_inv[idx], self.bottom_inv[idx])
+
+    def _reset_envs(self, idx: np.ndarray) -> None:
+        """New episodes for envs idx: spawn, contact randomisation, bookkeeping."""
+        if len(idx) == 0:
+            return
+        cfg = self.cfg
+        spawn = T.sample_spawn(
+            self.rng, self.entrance[idx], self.peg_vertices[idx], self.curriculum_scale(), cfg
+        )
+        self.sim.set_pose(idx, spawn[:, :3, 3], matrix_to_quat(spawn[:, :3, :3]))
+        k = len(idx)
+        # static and dynamic friction are drawn as in the original; MuJoCo has one Coulomb
+        # coefficient, which governs sliding (the regime of insertion): the dynamic one
+        _static = self.rng.uniform(*cfg.friction_range, k)
+        dynamic = self.rng.uniform(*cfg.friction_range, k)
+        restitution = self.rng.uniform(*cfg.restitution_range, k)
+        self.sim.set_contact(
+            idx, dynamic, restitution_to_dampratio(restitution, cfg.physics.min_dampratio)
+        )
+        d0 = T.seat_distance(self.bottom_inv[idx] @ spawn, cfg)
+        self._d0[idx] = np.maximum(d0, 1e-9)
+        self._c_prev[idx] = 0.0
+        self._steps[idx] = 0
+        self._return[idx] = 0.0
+
+    def set_peg_poses(self, idx: np.ndarray, poses: np.ndarray) -> None:
+        """Put the pegs of envs idx at `poses` (k, 4, 4), at rest, and restart their
+        episodes from there (for tests, demonstrations and hand-made starts)."""
+        idx = np.atleast_1d(np.asarray(idx))
+        self.sim.set_pose(idx, poses[:, :3, 3], matrix_to_quat(poses[:, :3, :3]))
+        d0 = T.seat_distance(self.bottom_inv[idx] @ poses, self.cfg)
+        self._d0[idx] = np.maximum(d0, 1e-9)
+        self._c_prev[idx] = 0.0
+        self._steps[idx] = 0
+        self._return[idx] = 0.0
+        self._obs[idx] = self._observe(poses, idx)
+
+    # ------------------------------------------------------------------ API
+
+    def reset(self, seed: int | None = None) -> np.ndarray:
+        """Reset every env; `seed` makes everything after it reproducible."""
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        self._reset_envs(np.arange(self.num_envs))
+        self._obs = self._observe(self.peg_poses())
+        return self._obs.copy()
+
+    def _check_actions(self, actions: np.ndarray) -> np.ndarray:
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, T.ACT_DIM):
+            raise ValueError(
+                f"actions must have shape (num_envs, 6) = ({self.num_envs}, 6), got "
+                f"{np.shape(actions)}"
+            )
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            envs = np.flatnonzero(bad).tolist()
+            raise ValueError(
+                f"actions of envs {envs[:20]}{' ...' if len(envs) > 20 else ''} contain NaN "
+                "or inf; actions must be finite (they are clipped to [-1, 1])"
+            )
+        return a
+
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+        cfg = self.cfg
+        a = np.clip(self._check_actions(actions), -1.0, 1.0)
+        scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
+        velocity = a * scale
+        if cfg.noise:
+            std = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
+            velocity = velocity + self.rng.normal(0.0, 1.0, velocity.shape) * std
+        unstable = self.sim.step(velocity)
+        self.global_step += self.num_envs
+        self._steps += 1
+
+        peg = self.peg_poses()
+        if unstable.any():
+            # keep the batch going: a placeholder pose for the arithmetic below (its reward
+            # is 0, its observation the last finite one); it is reset like a finished episode
+            peg[unstable] = np.eye(4)
+        in_bottom = self.bottom_inv @ peg
+        c = T.progress(T.seat_distance(in_bottom, cfg), self._d0)
+        reward = c - self._c_prev
+        success = T.succeeded(in_bottom, cfg) & ~unstable
+        failure = T.failed(
+            peg, self.peg_vertices, self.bottom, self.hole_radius, cfg.failure_depth, self.peg_reach
+        )
+        failure &= ~success & ~unstable
+        # c_T - c_{T-1} + (1 - c_T) = 1 - c_{T-1} = 1 - (return so far), written so that the
+        # float sum of a successful episode's rewards is exactly 1.0
+        reward = np.where(success, 1.0 - self._return, reward)
+        reward = np.where(failure, cfg.failure_reward, reward)
+        reward = np.where(unstable, 0.0, reward)
+        self._return += reward
+        self._c_prev = c
+
+        terminated = success | failure
+        truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
+        done = terminated | truncated
+        obs = self._observe(peg)
+        obs[unstable] = self._obs[unstable]  # the last finite observation
+        info = {
+            "final_obs": obs.copy(),
+            "success": success,
+            "failure": failure,
+            "unstable": unstable,
+            "episode_return": self._return.copy(),
+            "episode_length": self._steps.copy(),
+            "time_to_success": np.where(success, self._steps * self.control_dt, np.nan),
+            "module": self.env_module.copy(),
+            "peg_pose": self.sim.state[:, 1:8].copy(),
+        }
+        if unstable.any():
+            self.unstable_count += int(unstable.sum())
+        idx = np.flatnonzero(done)
+        if len(idx):
+            self._reset_envs(idx)
+            obs[idx] = self._observe(self.peg_poses()[idx], idx)
+        self._obs = obs
+        return obs.copy(), reward, terminated, truncated, info
+
+    # ------------------------------------------------------------------ exact resume
+
+    def get_state(self) -> dict:
+        """Everything needed to continue identically (rl/vec_env.py's StatefulVecEnv):
+        physics, per-env contact draws, episode bookkeeping, RNG, counters. (MuJoCo's solver
+        warm start is not state here: every control step starts it cold.)"""
+        friction, solref = self.sim.contact_params()
+        return {
+            "shard_state": self.sim.shard_state.copy(),
+            "friction": friction,
+            "solref": solref,
+            "steps": self._steps.copy(),
+            "return": self._return.copy(),
+            "c_prev": self._c_prev.copy(),
+            "d0": self._d0.copy(),
+            "obs": self._obs.copy(),
+            "rng": self.rng.bit_generator.state,
+            "global_step": int(self.global_step),
+            "unstable_count": int(self.unstable_count),
+        }
+
+    def set_state(self, state: dict) -> None:
+        """Restore a `get_state` result on an env built the same way (same modules,
+        num_envs, shard_size); raises ValueError naming a mismatched array."""
+        want = {
+            "shard_state": self.sim.shard_state.shape,
+            "friction": (self.num_envs,),
+            "solref": (self.num_envs, 2),
+            "steps": (self.num_envs,),
+            "obs": self._obs.shape,
+        }
+        for k, shape in want.items():
+            if np.shape(state[k]) != shape:
+                raise ValueError(
+                    f"env state {k!r} has shape {np.shape(state[k])}, this env needs {shape}: "
+                    "build the env with the same dataset, num_envs and shard_size"
+                )
+        self.sim.shard_state[:] = state["shard_state"]
+        self.sim.gather()
+        self.sim.set_contact_params(np.asarray(state["friction"]), np.asarray(state["solref"]))
+        self._steps[:] = state["steps"]
+        self._return[:] = state["return"]
+        self._c_prev[:] = state["c_prev"]
+        self._d0[:] = state["d0"]
+        self._obs[:] = state["obs"]
+        rng = np.random.default_rng()
+        rng.bit_generator.state = state["rng"]
+        self.rng = rng
+        self.global_step = int(state["global_step"])
+        self.unstable_count = int(state["unstable_count"])
+
+    def close(self) -> None:
+        self.sim.close()
+
+
+def _dataset_root(dataset: str | Path) -> Path:
+    """A dataset spec name (`train`, `test`) or a folder -> the folder."""
+    from assetgen.dataset import DatasetError, resolve
+
+    try:
+        return resolve(str(dataset))[0]
+    except DatasetError as e:
+        raise ValueError(str(e)) from e
+
+
+def make_train_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:
+    """rl's `make_env(dataset, num_envs, seed)` for training: the paper's task with its
+    curriculum; `seed` picks the module assignment beyond the dataset's size."""
+    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, TaskConfig(), assignment_seed=seed)
+
+
+def make_eval_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:
+    """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges). The
+    paper's protocol is one env per module: num_envs = the dataset's module count."""
+    from sim.config import EVAL_CONFIG
+
+    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, EVAL_CONFIG, assignment_seed=seed)

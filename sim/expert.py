@@ -1,0 +1,117 @@
+"""A scripted expert that uses only the 18-D observation: align with the hole axis above the
+entrance, then insert along it.
+
+What it reads from an observation (peg pose in the entrance frame E and the bottom frame B,
+both from the same noisy estimate of the peg pose P):
+    T_BE = T_BP T_EP^-1 = T_B^-1 T_E   exactly: the estimation error cancels, so the hole's
+                                       geometry (axis direction, depth) is known exactly;
+    T_BP  the noisy peg pose relative to the seat; T_EP's z: the noisy height above the
+          mounting surface.
+Actions are in the module frame; the entrance frame's orientation is the module frame's
+(its z is the mounting surface's normal, which is the module's z: the generator writes the
+identity quaternion for every entrance), so entrance-frame vectors are used as they are.
+
+Phases, decided per step from the observation alone (no memory):
+    1. misaligned orientation and low: rise (nothing of the module is above the mounting
+       surface, so a peg whose every point is above it cannot collide; a peg is at most
+       15 cm long, so turning about the bottom-face centre at 16 cm is safe);
+    2. turn to the hole's orientation while moving above the entrance on the hole axis;
+    3. once the lateral error is under 1.5 mm and the tilt under 3 deg, descend along the
+       axis at a speed that falls linearly to zero at those errors (half speed at least once
+       inside the hole, whose walls guide the peg), to the seat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.rotations import matrix_to_rotvec, rot6d_to_matrix
+
+
+@dataclass(frozen=True)
+class ExpertConfig:
+    """Gains and thresholds of the scripted expert (SI units)."""
+
+    safe_height: float = 0.16
+    """Height of the bottom-face centre above the surface at which any turn is safe, m."""
+    standoff: float = 0.01
+    """Height above the entrance (along the hole axis) where the peg aligns, m."""
+    pos_gain: float = 6.0
+    """Linear velocity per metre of position error, 1/s."""
+    rot_gain: float = 5.0
+    """Angular velocity per radian of orientation error, 1/s."""
+    turn_angle: float = np.radians(12.0)
+    """Orientation error above which the peg keeps high (phase 1-2), rad."""
+    insert_speed: float = 0.12
+    """Descent speed along the hole axis once aligned, m/s."""
+    lateral_tol: float = 0.0015
+    """Lateral error at which the descent speed above the entrance falls to zero, m."""
+    angle_tol: float = np.radians(3.0)
+    """Orientation error at which the descent speed above the entrance falls to zero, rad."""
+    max_lin_vel: float = 0.25
+    """Velocity of action 1.0 (the task's scale), m/s."""
+    max_ang_vel: float = np.radians(90.0)
+    """Angular velocity of action 1.0, rad/s."""
+
+
+def _split(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(n, 18) -> peg position/rotation in E and in B: (n, 3), (n, 3, 3), (n, 3), (n, 3, 3)."""
+    return obs[:, :3], rot6d_to_matrix(obs[:, 3:9]), obs[:, 9:12], rot6d_to_matrix(obs[:, 12:18])
+
+
+def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v * np.minimum(1.0, limit / np.maximum(n, 1e-12))
+
+
+def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.ndarray:
+    """(n, 18) observations -> (n, 6) actions in [-1, 1]."""
+    obs = np.asarray(obs, dtype=np.float64)
+    t_ep, r_ep, t_bp, r_bp = _split(obs)
+    r_eb = r_ep @ np.swapaxes(r_bp, 1, 2)  # bottom frame's orientation in E (exact)
+    t_eb = t_ep - np.einsum("nij,nj->ni", r_eb, t_bp)  # bottom origin in E (exact)
+    axis = r_eb[:, :, 2]  # hole axis in E, pointing out of the hole
+    depth = -t_eb[:, 2] / axis[:, 2]  # axial distance bottom -> entrance plane
+
+    # orientation error: rotate the peg onto the bottom frame, w = k * rotvec(R_EB R_EP^T)
+    rotvec = matrix_to_rotvec(r_eb @ np.swapaxes(r_ep, 1, 2))
+    angle = np.linalg.norm(rotvec, axis=1)
+    omega = _clip_norm(cfg.rot_gain * rotvec, cfg.max_ang_vel)
+
+    lateral_b = t_bp.copy()
+    lateral_b[:, 2] = 0.0
+    lateral = np.einsum("nij,nj->ni", r_eb, lateral_b)  # lateral offset from the axis, in E
+    lat_err = np.linalg.norm(lateral_b, axis=1)
+    axial = t_bp[:, 2]  # height above the seat along the axis
+    height = t_ep[:, 2]  # height above the mounting surface
+
+    # axial target: the standoff while misaligned, the seat once aligned
+    align = np.clip(1.0 - lat_err / cfg.lateral_tol, 0.0, 1.0) * np.clip(
+        1.0 - angle / cfg.angle_tol, 0.0, 1.0
+    )
+    inside = axial < depth + 0.002  # already in the hole: the walls guide, keep going
+    descent = np.where(inside, np.maximum(align, 0.5), align) * cfg.insert_speed
+    to_standoff = cfg.pos_gain * (depth + cfg.standoff - axial)
+    v_axial = np.where(
+        (align > 0) | inside,
+        -np.minimum(descent, cfg.pos_gain * np.maximum(axial, 0.0)),
+        to_standoff,
+    )
+    v = -cfg.pos_gain * lateral + v_axial[:, None] * axis
+
+    # turning: stay (or get) high until the orientation is nearly right
+    turning = angle > cfg.turn_angle
+    low = height < cfg.safe_height
+    rise = turning & low
+    v_rise = np.zeros_like(v)
+    v_rise[:, 2] = cfg.pos_gain * (cfg.safe_height + 0.01 - height)
+    v = np.where(rise[:, None], v_rise, v)
+    # the lateral move at height is safe; no descent while turning
+    v[:, 2] = np.where(turning & ~rise, np.maximum(v[:, 2], 0.0), v[:, 2])
+    omega = np.where((rise & (height < cfg.safe_height - 0.01))[:, None], 0.0, omega)
+
+    v = _clip_norm(v, cfg.max_lin_vel)
+    act = np.concatenate([v / cfg.max_lin_vel, omega / cfg.max_ang_vel], axis=1)
+    return np.clip(act, -1.0, 1.0)

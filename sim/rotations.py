@@ -1,0 +1,115 @@
+"""Batched rotation helpers on numpy arrays; quaternions are (w, x, y, z)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions -> (..., 3, 3) rotation matrices (normalised first)."""
+    q = np.asarray(q, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    r = np.empty((*q.shape[:-1], 3, 3))
+    r[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, 1] = 2 * (x * y - w * z)
+    r[..., 0, 2] = 2 * (x * z + w * y)
+    r[..., 1, 0] = 2 * (x * y + w * z)
+    r[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, 2] = 2 * (y * z - w * x)
+    r[..., 2, 0] = 2 * (x * z - w * y)
+    r[..., 2, 1] = 2 * (y * z + w * x)
+    r[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return r
+
+
+def matrix_to_quat(r: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) rotation matrices -> (..., 4) unit quaternions with w >= 0.
+
+    Shepperd's method, branch per element: the largest of w, x, y, z is computed from the
+    diagonal so no division by a small number happens.
+    """
+    r = np.asarray(r, dtype=float)
+    m = r.reshape(-1, 3, 3)
+    tr = np.trace(m, axis1=1, axis2=2)
+    diag = np.stack([tr, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    k = np.argmax(diag, axis=1)
+    q = np.empty((len(m), 4))
+    s = np.sqrt(np.maximum(1.0 + 2.0 * diag[np.arange(len(m)), k] - tr, 1e-300)) * 2.0
+    # 4 q_k^2 = 1 + 2 diag_k - trace (diag_0 = trace for w); the others from off-diagonals
+    a = m[:, 2, 1] - m[:, 1, 2]
+    b = m[:, 0, 2] - m[:, 2, 0]
+    c = m[:, 1, 0] - m[:, 0, 1]
+    xy = m[:, 0, 1] + m[:, 1, 0]
+    xz = m[:, 0, 2] + m[:, 2, 0]
+    yz = m[:, 1, 2] + m[:, 2, 1]
+    rows = {
+        0: (s / 4, a / s, b / s, c / s),
+        1: (a / s, s / 4, xy / s, xz / s),
+        2: (b / s, xy / s, s / 4, yz / s),
+        3: (c / s, xz / s, yz / s, s / 4),
+    }
+    for i, row in rows.items():
+        sel = k == i
+        q[sel] = np.stack(row, axis=1)[sel]
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q[q[:, 0] < 0] *= -1
+    return q.reshape(*r.shape[:-2], 4)
+
+
+def axis_angle_to_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(..., 3) axes (any length > 0) and (...) angles in radians -> (..., 3, 3) (Rodrigues)."""
+    axis = np.asarray(axis, dtype=float)
+    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    angle = np.asarray(angle, dtype=float)[..., None, None]
+    k = skew(axis)
+    eye = np.broadcast_to(np.eye(3), k.shape)
+    return eye + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
+
+
+def rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
+    """(..., 3) rotation vectors (axis * angle) -> (..., 3, 3); zero vectors give identity."""
+    v = np.asarray(v, dtype=float)
+    angle = np.linalg.norm(v, axis=-1)
+    axis = np.where(angle[..., None] > 1e-12, v, np.array([0.0, 0.0, 1.0]))
+    return axis_angle_to_matrix(axis, angle)
+
+
+def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) -> (..., 3) rotation vectors, angle in [0, pi] (via quaternions: stable)."""
+    q = matrix_to_quat(r)
+    s = np.linalg.norm(q[..., 1:], axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 0])
+    scale = np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)
+    return q[..., 1:] * scale[..., None]
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """(..., 3) -> (..., 3, 3) cross-product matrices."""
+    x, y, z = np.moveaxis(np.asarray(v, dtype=float), -1, 0)
+    o = np.zeros_like(x)
+    return np.stack(
+        [np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], -2
+    )
+
+
+def random_axes(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 3) unit vectors uniform on the sphere."""
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def rot6d(r: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) -> (..., 6): the first two columns, column after column (Zhou et al. 2019)."""
+    return np.concatenate([r[..., :, 0], r[..., :, 1]], axis=-1)
+
+
+def rot6d_to_matrix(d6: np.ndarray) -> np.ndarray:
+    """(..., 6) -> (..., 3, 3) by Gram-Schmidt: the inverse of rot6d for noisy input."""
+    a = d6[..., :3]
+    b = d6[..., 3:6]
+    x = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b - np.sum(x * b, axis=-1, keepdims=True) * x
+    y = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=-1)

@@ -1,0 +1,237 @@
+"""MuJoCo models built from module assets: static convex pieces, a free peg, a velocity
+controller inside MuJoCo.
+
+The module frame is the world frame of each environment (a module is static: the manipulator
+holding the peg stands on the same rigid body). The peg body's frame is the peg frame, so a
+free joint's qpos is the peg pose directly. The controller is six velocity actuators on a
+site at the peg's bottom-face centre, measured against a reference site at the module origin:
+with `site` + `refsite` transmission the actuator velocity is the site's linear/angular
+velocity expressed in the module frame, and force = kv (ctrl - velocity), within the
+force/torque limits. Tracking zero linear velocity of that site while turning makes the peg
+rotate about its bottom-face centre. The damping term is integrated implicitly (the
+`discrete` integrator), so kv may exceed what explicit Euler would allow at 200 Hz.
+
+Restitution: MuJoCo contacts have no restitution coefficient; the contact is a damped spring
+on the penetration (solref = time constant, damping ratio). With the impedance near 1 the
+penetration follows  r'' = -b r' - k r.  The restitution draw sets the damping ratio zeta
+(see `restitution_to_dampratio` for the mapping and why it is not the analytic inverse) and
+keeps k fixed (solref = (T0 / zeta, zeta) gives k = 1 / T0^2 whatever zeta), so it changes
+the damping only, never the stiffness (penetration).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from sim.assets import ModuleAsset
+from sim.config import PhysicsConfig
+
+PEG_SITE = "peg_site"
+REF_SITE = "ref_site"
+_AXES = np.eye(6)
+
+
+def restitution_to_dampratio(e: np.ndarray | float, min_dampratio: float) -> np.ndarray:
+    """Coefficient of restitution in [0, 1] -> contact damping ratio in [min_dampratio, 1].
+
+    A linear damped spring returns e = exp(-zeta pi / sqrt(1 - zeta^2)), i.e. zeta =
+    -ln e / sqrt(pi^2 + ln^2 e); restitution 0.05 already needs zeta = 0.69. Measured at
+    200 Hz with the controller pushing a peg into the plate, every zeta below ~0.8 ends in
+    a chatter limit cycle (the peg bounces 0.5 mm forever), and the free-peg rebound is
+    0.1-0.4 whatever zeta (numerical: the penetration found at detection is pushed out
+    within a step). So the draw randomises the contact's damping over the range that stays
+    settled, linearly: e = 0 -> 1 (critical), e = 1 -> min_dampratio. Not a restitution
+    coefficient: MuJoCo has none, and PhysX (the original) ignores restitution below its
+    bounce-threshold velocity (0.2 m/s by default), about this task's top speed.
+    """
+    e = np.clip(np.asarray(e, dtype=float), 0.0, 1.0)
+    return 1.0 - e * (1.0 - min_dampratio)
+
+
+def contact_solref(dampratio: np.ndarray | float, physics: PhysicsConfig) -> np.ndarray:
+    """(..., 2) solref for the given damping ratios with the stiffness k = 1/tau^2 fixed."""
+    z = np.asarray(dampratio, dtype=float)
+    return np.stack([physics.contact_timeconst / z, z], axis=-1)
+
+
+def rotational_kv(asset: ModuleAsset, physics: PhysicsConfig) -> float:
+    """Angular gain: the largest principal inertia about the bottom-face centre / tau."""
+    c = asset.peg_com
+    # parallel-axis theorem: I_site = I_com + m (|c|^2 I - c c^T)
+    i_site = asset.peg_inertia + asset.peg_mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return float(np.linalg.eigvalsh(i_site).max() / physics.tracking_time_constant)
+
+
+def _set_options(spec: mujoco.MjSpec, physics: PhysicsConfig) -> None:
+    opt = spec.option
+    opt.timestep = physics.timestep
+    opt.gravity = [0.0, 0.0, 0.0]
+    # `discrete` (default): the constraint solve uses the same effective inertia M + h D as
+    # the implicit velocity controller. Under `implicitfast` the controller's implicit
+    # damping (h kv ~ M) diluted every contact impulse: a full-speed impact sank 1.9 mm.
+    opt.integrator = {
+        "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
+        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    }[physics.integrator]
+    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.iterations = physics.iterations
+    opt.cone = {
+        "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC,
+        "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL,
+    }[physics.cone]
+    opt.impratio = physics.impratio
+    opt.noslip_iterations = physics.noslip_iterations
+    if not physics.multiccd:
+        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MULTICCD
+    # A diverging env must be seen, not silently reset to qpos0 by MuJoCo: the env layer
+    # resets it itself and reports it (info["unstable"]).
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    # Under `discrete` every contact row is resolvable by construction (solref[0] *
+    # solref[1] = T0 >= h); with refsafe on, rounding of T0 / zeta * zeta just below h would
+    # swap a row for MuJoCo's replacement spring, which made a pressed peg chatter.
+    if physics.integrator == "discrete":
+        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+
+
+def _add_mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray) -> None:
+    mesh = spec.add_mesh()
+    mesh.name = name
+    mesh.uservert = vertices.astype(float).ravel().tolist()
+    mesh.userface = faces.astype(int).ravel().tolist()
+
+
+def add_environment(
+    spec: mujoco.MjSpec,
+    asset: ModuleAsset,
+    physics: PhysicsConfig,
+    *,
+    prefix: str = "",
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    collision_bit: int = 1,
+    max_lin_vel: float = 0.25,
+    max_ang_vel: float = math.pi / 2,
+) -> None:
+    """Add one module (static pieces), its peg (free body) and the six actuators to `spec`.
+
+    `offset` places the module origin in the world (shards hold many modules side by side);
+    `collision_bit` is the contype of the peg and the conaffinity of the pieces, so a peg
+    only touches modules that share its bit.
+    """
+    solref = contact_solref(1.0, physics).tolist()
+    solimp = list(physics.solimp)
+    for i, piece in enumerate(asset.pieces):
+        _add_mesh(spec, f"{prefix}piece{i}", piece.vertices, piece.faces)
+        g = spec.worldbody.add_geom()
+        g.name = f"{prefix}piece{i}"
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = f"{prefix}piece{i}"
+        g.pos = list(offset)
+        g.contype = 0
+        g.conaffinity = collision_bit
+        # the peg's geom has priority: its friction/solref (randomised per reset) rule
+        g.friction = [0.0, 0.005, 0.0001]
+        g.solref = solref
+        g.solimp = solimp
+        g.group = 1
+    ref = spec.worldbody.add_site()
+    ref.name = f"{prefix}{REF_SITE}"
+    ref.pos = list(offset)
+
+    _add_mesh(spec, f"{prefix}peg", asset.peg.vertices, asset.peg.faces)
+    body = spec.worldbody.add_body()
+    body.name = f"{prefix}peg"
+    body.pos = [offset[0], offset[1], offset[2] + 0.2]
+    body.explicitinertial = True
+    body.mass = asset.peg_mass
+    body.ipos = asset.peg_com.tolist()
+    inertia = asset.peg_inertia
+    body.fullinertia = [
+        inertia[0, 0],
+        inertia[1, 1],
+        inertia[2, 2],
+        inertia[0, 1],
+        inertia[0, 2],
+        inertia[1, 2],
+    ]
+    body.add_freejoint().name = f"{prefix}peg_free"
+    g = body.add_geom()
+    g.name = f"{prefix}peg"
+    g.type = mujoco.mjtGeom.mjGEOM_MESH
+    g.meshname = f"{prefix}peg"
+    g.contype = collision_bit
+    g.conaffinity = 0
+    g.priority = 1
+    g.condim = 3
+    g.friction = [0.5, 0.005, 0.0001]
+    g.solref = solref
+    g.solimp = solimp
+    site = body.add_site()
+    site.name = f"{prefix}{PEG_SITE}"
+
+    # never saturating: a reversal from -max to +max velocity needs kv * 2 * max <= limit
+    kv_lin = min(
+        asset.peg_mass / physics.tracking_time_constant, physics.force_limit / (2.2 * max_lin_vel)
+    )
+    kv_rot = min(rotational_kv(asset, physics), physics.torque_limit / (2.2 * max_ang_vel))
+    for k in range(6):
+        a = spec.add_actuator()
+        a.name = f"{prefix}vel{k}"
+        a.trntype = mujoco.mjtTrn.mjTRN_SITE
+        a.target = f"{prefix}{PEG_SITE}"
+        a.refsite = f"{prefix}{REF_SITE}"
+        a.gear = _AXES[k].tolist()
+        kv = kv_lin if k < 3 else kv_rot
+        limit = physics.force_limit if k < 3 else physics.torque_limit
+        a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        a.gainprm[0] = kv
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.biasprm[:3] = [0.0, 0.0, -kv]
+        a.ctrllimited = False
+        a.forcelimited = True
+        a.forcerange = [-limit, limit]
+
+
+def build_model(
+    assets: list[ModuleAsset],
+    physics: PhysicsConfig,
+    *,
+    max_lin_vel: float = 0.25,
+    max_ang_vel: float = math.pi / 2,
+    spacing: float = 2.0,
+    pad_geoms: int = 0,
+) -> mujoco.MjModel:
+    """One model holding `len(assets)` environments (one: the usual case; more: a shard).
+
+    In a shard, env k sits at x = k * spacing with collision bit k mod 31 + 1... peg k only
+    collides with module k's bit group, and same-bit modules are 31 * spacing apart.
+    """
+    spec = mujoco.MjSpec()
+    spec.modelname = "peg_in_hole"
+    _set_options(spec, physics)
+    for k, asset in enumerate(assets):
+        prefix = f"e{k}_" if len(assets) > 1 else ""
+        add_environment(
+            spec,
+            asset,
+            physics,
+            prefix=prefix,
+            offset=(k * spacing, 0.0, 0.0),
+            collision_bit=1 << (k % 31),
+            max_lin_vel=max_lin_vel,
+            max_ang_vel=max_ang_vel,
+        )
+    for i in range(pad_geoms):
+        # inert spheres: they only enlarge the model (see sim/batch.py, capacity model)
+        g = spec.worldbody.add_geom()
+        g.name = f"pad{i}"
+        g.size = [0.001, 0, 0]
+        g.pos = [0.0, 0.0, -10.0]
+        g.contype = 0
+        g.conaffinity = 0
+    return spec.compile()

@@ -1,0 +1,276 @@
+"""The vector env: observation, rewards by hand, episode ends, determinism, bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim import task as T
+from sim.assets import AssetError, load_dataset
+from sim.env import PegInHoleVecEnv, assign_modules
+from sim.expert import expert_action
+from sim.rotations import rot6d
+from tests.test_sim_common import make_env, modules, quiet, sim_dataset
+
+
+def _hover(env: PegInHoleVecEnv, i: int, height: float) -> np.ndarray:
+    """Aligned with the hole (bottom frame's orientation), on its axis, `height` above the
+    entrance along the axis."""
+    pose = env.bottom[i].copy()
+    depth = -pose[2, 3] / pose[2, 2]
+    pose[:3, 3] += (depth + height) * pose[:3, 2]
+    return pose
+
+
+def test_observation_is_the_peg_pose_in_both_frames() -> None:
+    env = make_env(2)
+    obs = env.reset(seed=3)
+    peg = env.peg_poses()
+    for i in range(2):
+        in_e = np.linalg.inv(env.entrance[i]) @ peg[i]
+        in_b = np.linalg.inv(env.bottom[i]) @ peg[i]
+        want = np.concatenate([in_e[:3, 3], rot6d(in_e[:3, :3]), in_b[:3, 3], rot6d(in_b[:3, :3])])
+        assert obs[i] == pytest.approx(want, abs=1e-6)
+    assert obs.shape == (2, 18) and obs.dtype == np.float32
+
+
+def test_noise_perturbs_one_pose_estimate_consistently() -> None:
+    """Both transforms come from one estimate: T_B^-1 T_E recovered from them is exact."""
+    env = make_env(1, replace(quiet(), noise=True))
+    obs = env.reset(seed=0)
+    truth = np.linalg.inv(env.bottom[0]) @ env.entrance[0]
+    from sim.expert import _split
+
+    t_e, r_e, t_b, r_b = _split(obs.astype(np.float64))
+    r_be = r_b[0] @ r_e[0].T
+    assert r_be == pytest.approx(truth[:3, :3], abs=1e-5)
+    assert t_b[0] - r_be @ t_e[0] == pytest.approx(truth[:3, 3], abs=1e-5)
+    clean = T.observe(env.peg_poses(), env.entrance_inv, env.bottom_inv)
+    err = np.abs(obs[0, :3] - clean[0, :3]).max()
+    assert 1e-6 < err < 0.003  # 0.5 mm standard deviation
+
+
+def test_rewards_by_hand() -> None:
+    env = make_env(1)
+    env.reset(seed=0)
+    start = _hover(env, 0, 0.05)
+    start[:3, 3] += [0.01, 0.0, 0.0]
+    env.set_peg_poses(np.array([0]), start[None])
+    d0 = 0.8 * np.linalg.norm((np.linalg.inv(env.bottom[0]) @ start)[:3, 3]) + 0.2 * np.linalg.norm(
+        (np.linalg.inv(env.bottom[0]) @ start)[:3, :3] - np.eye(3)
+    )
+    _, r, term, trunc, _ = env.step(np.zeros((1, 6)))
+    assert r[0] == pytest.approx(0.0, abs=1e-9)  # first step, no motion: no progress
+    down = np.zeros((1, 6))
+    down[0, :3] = -env.bottom[0, :3, 2]  # along the hole axis, into the hole
+    _, r, term, trunc, _ = env.step(down * 0.5)
+    rel = np.linalg.inv(env.bottom[0]) @ env.peg_poses()[0]
+    d1 = 0.8 * np.linalg.norm(rel[:3, 3]) + 0.2 * np.linalg.norm(rel[:3, :3] - np.eye(3))
+    assert r[0] == pytest.approx(1 - np.sqrt(d1 / d0), rel=1e-9)
+    assert r[0] > 0  # toward the seat
+    _, r, _, _, _ = env.step(-down)
+    assert r[0] < 0  # away from it
+    assert not term[0] and not trunc[0]
+
+
+def test_successful_episode_returns_exactly_one() -> None:
+    env = make_env(2, replace(quiet(), noise=True))
+    obs = env.reset(seed=1)
+    returns: list[float] = []
+    total = np.zeros(2)
+    for _ in range(500):
+        obs, r, term, trunc, info = env.step(expert_action(obs))
+        total += r
+        for i in np.flatnonzero(term | trunc):
+            assert info["success"][i]
+            assert info["episode_return"][i] == 1.0
+            assert total[i] == 1.0  # the float sum of the rewards, exactly
+            assert info["time_to_success"][i] == info["episode_length"][i] * env.control_dt
+            # within 5 mm of the seat, seen through the observation noise
+            assert info["final_obs"][i][9:12] == pytest.approx(np.zeros(3), abs=0.0075)
+            returns.append(total[i])
+            total[i] = 0.0
+        if len(returns) >= 2:
+            break
+    assert returns == [1.0, 1.0]
+
+
+def test_going_below_the_surface_outside_the_hole_fails() -> None:
+    env = make_env(1)
+    env.reset(seed=0)
+    beside = np.eye(4)
+    beside[:3, 3] = [0.12, 0.0, 0.01]  # beyond the plate's edge (+-0.075 m)
+    env.set_peg_poses(np.array([0]), beside[None])
+    steps = 0
+    while steps < 100:
+        _, r, term, trunc, info = env.step(np.array([[0, 0, -1.0, 0, 0, 0]]))
+        steps += 1
+        if term[0]:
+            break
+    assert term[0] and not trunc[0]
+    assert info["failure"][0] and not info["success"][0]
+    assert r[0] == -1.0
+    # it ends once the peg's lowest point is 2.5 mm below the surface: 12.5 mm of travel
+    assert steps == pytest.approx(0.0125 / (0.25 * env.control_dt), abs=1.5)
+
+
+def test_inside_the_hole_is_not_a_failure() -> None:
+    env = make_env(1)
+    env.reset(seed=0)
+    env.set_peg_poses(np.array([0]), _hover(env, 0, -0.006)[None])  # 6 mm into the hole
+    _, _, term, _, info = env.step(np.zeros((1, 6)))
+    assert not term[0] and not info["failure"][0]
+
+
+def test_truncation_at_the_step_limit_and_automatic_reset() -> None:
+    env = make_env(2, replace(quiet(), max_steps=5))
+    env.reset(seed=0)
+    for k in range(5):
+        obs, _, term, trunc, info = env.step(np.zeros((2, 6)))
+        assert trunc.all() == (k == 4)
+    assert not term.any()
+    assert (info["episode_length"] == 5).all()
+    assert np.isnan(info["time_to_success"]).all()
+    assert not np.allclose(obs, info["final_obs"])  # obs already starts the next episode
+    _, _, _, trunc, info = env.step(np.zeros((2, 6)))
+    assert not trunc.any() and (info["episode_length"] == 1).all()
+
+
+def test_same_seed_same_trajectories() -> None:
+    def run(seed: int) -> list[np.ndarray]:
+        env = make_env(2, replace(quiet(), noise=True, max_steps=20))
+        rng = np.random.default_rng(7)
+        out = [env.reset(seed=seed)]
+        for _ in range(30):
+            obs, r, term, trunc, _ = env.step(rng.uniform(-1, 1, (2, 6)))
+            out += [obs, r, term, trunc]
+        return out
+
+    a, b, c = run(5), run(5), run(6)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert not np.array_equal(a[0], c[0])
+
+
+def test_bad_actions_raise_naming_the_envs() -> None:
+    env = make_env(3)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape \(num_envs, 6\) = \(3, 6\), got \(3, 5\)"):
+        env.step(np.zeros((3, 5)))
+    bad = np.zeros((3, 6))
+    bad[1, 2] = np.nan
+    bad[2, 0] = np.inf
+    with pytest.raises(ValueError, match=r"envs \[1, 2\] contain NaN or inf"):
+        env.step(bad)
+
+
+@pytest.mark.parametrize("shard_size", [1, 2])
+def test_unstable_env_is_reset_and_reported_without_stopping_the_batch(shard_size: int) -> None:
+    """Env 1 breaks. With one model per env only it is hit; in shards of 2, MuJoCo stops
+    stepping its shard, so its shard-mate (env 0) is reported too; env 2 goes on."""
+    env = make_env(3, shard_size=shard_size)
+    twin = make_env(3, shard_size=shard_size)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    env.sim.state[1, 8:] = np.nan  # broken physics in env 1 only
+    obs, r, term, trunc, info = env.step(np.zeros((3, 6)))
+    ref, *_ = twin.step(np.zeros((3, 6)))
+    hit = [False, True, False] if shard_size == 1 else [True, True, False]
+    assert info["unstable"].tolist() == hit
+    assert trunc.tolist() == hit and not term.any()
+    assert (r[hit] == 0.0).all() and env.unstable_count == sum(hit)
+    assert np.isfinite(obs).all() and np.isfinite(env.sim.state).all()
+    assert np.array_equal(obs[2], ref[2])  # the other shard is untouched
+    obs, *_ = env.step(np.zeros((3, 6)))  # and the batch goes on
+    assert np.isfinite(obs).all()
+
+
+def test_missing_or_corrupt_dataset_fails_before_simulating(tmp_path: Path) -> None:
+    with pytest.raises(AssetError, match="not a dataset"):
+        PegInHoleVecEnv(tmp_path / "nothing")
+    broken = tmp_path / "ds"
+    shutil.copytree(sim_dataset(), broken)
+    mid = load_dataset(broken)[0].id
+    piece = broken / "modules" / mid / "collision" / "piece_000.stl"
+    piece.write_bytes(piece.read_bytes()[:100])
+    with pytest.raises(AssetError, match=r"piece_000\.stl.*truncated"):
+        PegInHoleVecEnv(broken)
+    meta = broken / "modules" / mid / "module.json"
+    d = json.loads(meta.read_text())
+    del d["frames"]
+    meta.write_text(json.dumps(d))
+    with pytest.raises(AssetError, match=r"module\.json.*frames"):
+        PegInHoleVecEnv(broken)
+
+
+def test_curriculum_grows_the_spawn_ranges() -> None:
+    cfg = replace(quiet(), curriculum_steps=1000)
+    env = make_env(4, cfg)
+    obs = env.reset(seed=0)
+    assert np.abs(obs[:, :2]).max() < 1e-9  # scale 0: at the entrance, upright
+    assert obs[:, 2] == pytest.approx(0.001, abs=1e-6)  # lifted 1 mm clear of the surface
+    env.global_step = 500  # half way
+    obs = env.reset(seed=0)
+    assert np.abs(obs[:, :2]).max() <= 0.125
+    assert (obs[:, 2] <= 0.125 + 1e-6).all()
+    env.global_step = 10**9
+    assert env.curriculum_scale() == 1.0
+    full = make_env(4).reset(seed=0)  # curriculum off: full ranges
+    assert np.abs(full[:, :2]).max() > 0.05 and (full[:, 2] >= 0.15 - 1e-6).all()
+
+
+def test_module_assignment() -> None:
+    assert assign_modules(4, 3, 0).tolist() == [0, 1, 2]
+    a = assign_modules(4, 11, 9)
+    assert a[:4].tolist() == [0, 1, 2, 3]
+    assert sorted(a[4:8].tolist()) == [0, 1, 2, 3]  # each module once per round
+    assert np.array_equal(a, assign_modules(4, 11, 9))
+    env = PegInHoleVecEnv(list(modules()), 6, quiet(), nthread=1)
+    assert env.env_module.tolist()[:4] == [0, 1, 2, 3]
+
+
+def test_conforms_to_the_rl_contract() -> None:
+    from rl.vec_env import StatefulVecEnv, check_step
+
+    env = make_env(3, replace(quiet(), noise=True, max_steps=2))
+    assert isinstance(env, StatefulVecEnv)
+    env.reset(seed=0)
+    for _ in range(3):  # across an episode end
+        check_step(env, env.step(np.zeros((3, 6), dtype=np.float32)))
+
+
+def test_exact_resume_from_get_state() -> None:
+    cfg = replace(quiet(), noise=True, max_steps=12, curriculum_steps=400)
+    rng = np.random.default_rng(3)
+    acts = [rng.uniform(-1, 1, (3, 6)) for _ in range(30)]
+    env = make_env(3, cfg, shard_size=2)
+    env.reset(seed=4)
+    for a in acts[:10]:
+        env.step(a)
+    state = env.get_state()
+    state["rng"] = json.loads(json.dumps(state["rng"]))  # JSON-able, as checkpoints need
+    after = [env.step(a) for a in acts[10:]]
+    other = make_env(3, cfg, shard_size=2)
+    other.reset(seed=99)  # a different history, overwritten by the state
+    other.set_state(state)
+    again = [other.step(a) for a in acts[10:]]
+    for x, y in zip(after, again, strict=True):
+        for u, v in zip(x[:4], y[:4], strict=True):
+            assert np.array_equal(u, v)
+        assert np.array_equal(x[4]["episode_return"], y[4]["episode_return"])
+    with pytest.raises(ValueError, match="shard_state"):
+        make_env(2, cfg).set_state(state)
+
+
+def test_factories_for_rl() -> None:
+    from sim.env import make_eval_env, make_train_env
+
+    env = make_train_env(str(sim_dataset()), 5, 1)
+    assert env.num_envs == 5 and env.cfg.curriculum_steps == 50_000_000
+    assert make_eval_env(str(sim_dataset()), 4, 0).curriculum_scale() == 1.0
+    with pytest.raises(ValueError, match="no dataset spec named"):
+        make_eval_env("no-such-dataset", 1, 0)
