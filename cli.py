@@ -181,7 +181,35 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_eval(args: argparse.Namespace) -> int:
+    from assetgen.dataset import DatasetError
+    from sim.assets import AssetError
+    from sim.evaluate import eval_main
+
+    if args.checkpoint:
+        try:
+            from rl.commands import eval_checkpoint_main
+        except ImportError:
+            return _err("evaluating a checkpoint needs the rl package: pip install -e '.[rl]'")
+        return eval_checkpoint_main(args)
+    if args.agent is None:
+        return _err("give --agent scripted|random or --checkpoint RUN_DIR")
+    try:
+        return eval_main(args)
+    except (DatasetError, AssetError, ValueError) as e:
+        return _err(str(e))
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "sim":
+        from assetgen.dataset import DatasetError
+        from sim.assets import AssetError
+        from sim.bench import bench_main
+
+        try:
+            return bench_main(args)
+        except (DatasetError, AssetError, ValueError) as e:
+            return _err(str(e))
     if args.what == "assets":
         from assetgen.bench import bench_assets
 
@@ -231,12 +259,29 @@ def build_parser() -> argparse.ArgumentParser:
     i.set_defaults(func=cmd_info)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
-    b.add_argument("what", choices=["assets"], help="what to measure")
+    b.add_argument("what", choices=["assets", "sim"], help="what to measure")
     b.add_argument("--n", type=int, default=256, help="modules (assets)")
+    b.add_argument("--envs", type=int, default=1024, help="environments (sim)")
+    b.add_argument("--steps", type=int, default=200, help="control steps (sim)")
+    b.add_argument("--dataset", default="test", help="dataset (sim; default test)")
+    b.add_argument("--threads", type=int, default=None, help="rollout threads (sim)")
     b.add_argument("--workers", type=int, default=None)
     b.add_argument("--json", action="store_true", help="print the figures as JSON last")
     b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
     b.set_defaults(func=cmd_bench)
+
+    e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
+    e.add_argument("--agent", choices=["scripted", "random"], help="a built-in agent")
+    e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
+    e.add_argument("--dataset", default="test", help="spec name or dataset folder")
+    e.add_argument("--attempts", type=int, default=10, help="episodes per module")
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--envs", type=int, default=1024, help="parallel environments at most")
+    e.add_argument("--record", type=Path, help="folder for recorded episodes (.npz)")
+    e.add_argument("--record-limit", type=int, default=None, help="episodes to record")
+    e.add_argument("--out", type=Path, help="write the results JSON here")
+    e.add_argument("--json", action="store_true", help="print the results as one JSON line")
+    e.set_defaults(func=cmd_eval)
     return p
 
 

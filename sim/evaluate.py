@@ -157,9 +157,15 @@ def eval_main(args: argparse.Namespace) -> int:
         record=getattr(args, "record", None),
         record_limit=getattr(args, "record_limit", None),
     )
+    strict = {k: _no_nan(v) for k, v in res.items()}  # strict JSON: no NaN
+    out = getattr(args, "out", None)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(out.name + ".tmp")
+        tmp.write_text(json.dumps({"agent": args.agent, "dataset": str(root), **strict}))
+        tmp.replace(out)
     if getattr(args, "json", False):
-        # strict JSON: no NaN (the median when nothing succeeded)
-        print(json.dumps({k: _no_nan(v) for k, v in res.items()}))
+        print(json.dumps(strict))
         return 0
     tts = np.asarray(res["time_to_success_s"])
     q = np.percentile(tts, [10, 50, 90]) if len(tts) else [float("nan")] * 3

@@ -89,3 +89,54 @@ def test_check_info_bench(tiny_dataset):
 def test_unknown_dataset_name():
     p = run("info", "no_such_dataset")
     assert p.returncode != 0 and "no dataset spec named" in p.stderr
+
+
+def test_eval_and_bench_sim(tiny_dataset, tmp_path):
+    out = tmp_path / "eval.json"
+    p = run(
+        "eval",
+        "--agent",
+        "scripted",
+        "--dataset",
+        str(tiny_dataset),
+        "--attempts",
+        "1",
+        "--out",
+        str(out),
+        check=True,
+    )
+    assert "success rate" in p.stdout
+    saved = json.loads(out.read_text())
+    assert saved["agent"] == "scripted" and saved["episodes"] == 6
+    assert 0.0 <= saved["success_rate"] <= 1.0
+    p = run(
+        "eval",
+        "--agent",
+        "random",
+        "--dataset",
+        str(tiny_dataset),
+        "--attempts",
+        "1",
+        "--json",
+        check=True,
+    )
+    assert json.loads(p.stdout.strip().splitlines()[-1])["episodes"] == 6
+    p = run(
+        "bench",
+        "sim",
+        "--envs",
+        "12",
+        "--steps",
+        "10",
+        "--dataset",
+        str(tiny_dataset),
+        "--json",
+        check=True,
+    )
+    figures = json.loads(p.stdout.strip().splitlines()[-1])
+    assert figures["env_steps_per_s"] > 0 and figures["rollout_steps_per_s"] > 0
+
+
+def test_eval_missing_dataset(tmp_path):
+    p = run("eval", "--agent", "scripted", "--dataset", str(tmp_path / "nope"))
+    assert p.returncode != 0 and "is not a dataset" in p.stderr
