@@ -188,10 +188,22 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     if args.checkpoint:
         try:
-            from rl.commands import eval_checkpoint_main
+            from rl.commands import eval_main as rl_eval_main
         except ImportError:
-            return _err("evaluating a checkpoint needs the rl package: pip install -e '.[rl]'")
-        return eval_checkpoint_main(args)
+            return _err("evaluating a checkpoint needs torch: pip install -e '.[rl]'")
+        from sim import make_eval_env
+
+        run_args = argparse.Namespace(
+            run=args.checkpoint,
+            dataset=args.dataset,
+            episodes=args.attempts,
+            envs=args.envs,
+            seed=args.seed,
+            device=None,
+            stochastic=False,
+            json=args.json,
+        )
+        return rl_eval_main(run_args, make_eval_env)
     if args.agent is None:
         return _err("give --agent scripted|random or --checkpoint RUN_DIR")
     try:
@@ -282,6 +294,14 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", type=Path, help="write the results JSON here")
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
     e.set_defaults(func=cmd_eval)
+
+    try:  # training needs torch (the `rl` extra); the rest of the CLI does not
+        from rl.commands import add_train_parser
+        from sim import make_train_env
+
+        add_train_parser(sub, make_train_env)
+    except ImportError:
+        pass
     return p
 
 

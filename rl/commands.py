@@ -1,0 +1,185 @@
+"""argparse wiring for the `assetgen` command: the lead's cli.py calls
+
+    add_train_parser(subparsers, make_env)       assetgen train ...
+    add_eval_parser(subparsers, make_eval_env)   assetgen eval-agent ...
+
+`make_env(dataset: str, num_envs: int, seed: int) -> VecEnv` (rl/vec_env.py) is supplied by
+the caller, so rl/ never imports the simulator. Each parser sets `func(args) -> int` (an exit
+code), as the other subcommands do.
+
+    assetgen train --algo ppo|sac|random [--stack 10] --dataset D [--preset cpu]
+                   [--steps N | --minutes M] [--seed S] --out RUN_DIR [--resume]
+                   [--envs N] [--device cpu|cuda] [--threads T] [--no-progress]
+    assetgen eval-agent --run RUN_DIR --dataset D [--episodes 10] [--envs N] [--seed S]
+                   [--stochastic] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from rl.vec_env import VecEnv
+
+MakeEnv = Callable[[str, int, int], VecEnv]
+"""make_env(dataset, num_envs, seed) -> a VecEnv."""
+
+
+def add_train_parser(
+    subparsers: argparse._SubParsersAction, make_env: MakeEnv
+) -> argparse.ArgumentParser:
+    """Register `train` on an argparse subparsers object."""
+    from rl.presets import PRESETS
+    from rl.runner import ALGOS
+
+    p = subparsers.add_parser(
+        "train",
+        help="train an agent (PPO, SAC, random) on a dataset's modules",
+        description="Train an agent on the vector env; progress bar, metrics.csv, TensorBoard "
+        "and checkpoints in --out. --resume continues a run exactly (see rl/runner.py).",
+    )
+    p.add_argument("--algo", choices=sorted(ALGOS), required=True, help="algorithm")
+    p.add_argument(
+        "--stack",
+        type=int,
+        default=1,
+        help="observations stacked, newest first (10: the paper's STACK; default 1)",
+    )
+    p.add_argument("--dataset", required=True, help="dataset spec name or folder")
+    p.add_argument(
+        "--preset",
+        choices=sorted(PRESETS),
+        default="cpu",
+        help="hyperparameter preset (rl/presets.py; default cpu)",
+    )
+    budget = p.add_mutually_exclusive_group()
+    budget.add_argument("--steps", type=int, help="total env steps (default: the preset's)")
+    budget.add_argument("--minutes", type=float, help="wall-clock budget of this call")
+    p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    p.add_argument("--out", type=Path, required=True, help="run folder")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out")
+    p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
+    p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
+    p.add_argument("--threads", type=int, help="torch CPU threads (default: torch's)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
+    p.set_defaults(func=lambda args: train_main(args, make_env))
+    return p
+
+
+def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
+    """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
+    import torch
+
+    from rl.checkpoint import CheckpointError
+    from rl.presets import get_setup
+    from rl.runner import console, train
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    try:
+        setup = get_setup(args.preset, args.algo)
+        if args.steps is not None and args.steps < 1:
+            raise ValueError(f"--steps {args.steps}: give a positive number of env steps")
+        if args.minutes is not None and args.minutes <= 0:
+            raise ValueError(f"--minutes {args.minutes}: give a positive duration")
+        env = make_env(args.dataset, args.envs or setup.num_envs, args.seed)
+        result = train(
+            args.algo,
+            env,
+            setup,
+            steps=args.steps,
+            minutes=args.minutes,
+            seed=args.seed,
+            out_dir=args.out,
+            resume=args.resume,
+            stack=args.stack,
+            device=args.device,
+            progress=not args.no_progress,
+        )
+    except (ValueError, CheckpointError) as e:
+        console.print(f"[bold red]error:[/] {e}")
+        return 2
+    if args.json:
+        print(json.dumps(result))
+    else:
+        m, nan = result["metrics"], float("nan")
+        console.print(
+            f"{result['status']}: {result['env_steps']:,} env steps, {result['iterations']} "
+            f"iterations, {result['seconds']:.0f} s; success {m.get('success_rate', nan):.1%}, "
+            f"return {m.get('return_mean', nan):.3f}; checkpoint {result['checkpoint']}"
+        )
+    return {"done": 0, "nan": 1, "interrupted": 130}[result["status"]]
+
+
+def add_eval_parser(
+    subparsers: argparse._SubParsersAction, make_env: MakeEnv, name: str = "eval-agent"
+) -> argparse.ArgumentParser:
+    """Register `eval-agent` (the protocol of rl/evaluate.py on a trained run)."""
+    p = subparsers.add_parser(
+        name,
+        help="evaluate a trained run: success rate and time to success",
+        description="Every env plays --episodes episodes with the run's policy (deterministic "
+        "unless --stochastic); make_env should give one env per module for the paper's protocol.",
+    )
+    p.add_argument("--run", type=Path, required=True, help="run folder (or checkpoint file)")
+    p.add_argument("--dataset", required=True, help="dataset spec name or folder")
+    p.add_argument("--episodes", type=int, default=10, help="episodes per env (default 10)")
+    p.add_argument("--envs", type=int, help="envs (default: the run's)")
+    p.add_argument("--seed", type=int, default=0, help="env seed (default 0)")
+    p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
+    p.add_argument("--stochastic", action="store_true", help="sample actions")
+    p.add_argument("--json", action="store_true", help="print the results as one JSON line")
+    p.set_defaults(func=lambda args: eval_main(args, make_env))
+    return p
+
+
+def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
+    """Evaluate a run from parsed arguments; prints a short table or a JSON line."""
+    import numpy as np
+
+    from rl.checkpoint import CheckpointError
+    from rl.evaluate import evaluate
+    from rl.runner import console, load_agent
+    from rl.stack import StackObs
+
+    try:
+        agent, meta = load_agent(args.run, args.device)
+        env = make_env(args.dataset, args.envs or meta["num_envs"], args.seed)
+        if meta["stack"] > 1:
+            env = StackObs(env, meta["stack"])
+        if env.obs_dim != meta["obs_dim"]:
+            raise ValueError(
+                f"the env's observations have {env.obs_dim} values, the run's "
+                f"policy takes {meta['obs_dim']}"
+            )
+        res = evaluate(
+            lambda o: agent.policy(o, deterministic=not args.stochastic),
+            env,
+            args.episodes,
+            seed=args.seed,
+        )
+    except (ValueError, CheckpointError) as e:
+        console.print(f"[bold red]error:[/] {e}")
+        return 2
+    res = {"algo": meta["algo"], "stack": meta["stack"], **res}
+    if args.json:
+        print(json.dumps(res))
+        return 0
+    tts = np.asarray(res["time_to_success_s"])
+    q = np.percentile(tts, [10, 50, 90]) if len(tts) else [float("nan")] * 3
+    rows = [
+        ("agent", f"{meta['algo']}{'-STACK' if meta['stack'] > 1 else ''} ({args.run})"),
+        ("episodes", res["episodes"]),
+        ("success rate", f"{100 * res['success_rate']:.2f} %"),
+        ("time to success p10/p50/p90", f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"),
+        ("mean return", f"{res['mean_return']:.3f}"),
+        ("truncated", f"{100 * res['truncation_rate']:.2f} %"),
+        ("wall time", f"{res['seconds']:.1f} s"),
+    ]
+    width = max(len(k) for k, _ in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}")
+    return 0

@@ -1,0 +1,94 @@
+"""The evaluation protocol over the vector-env contract: every env plays exactly
+`episodes_per_env` episodes back to back (with one env per module, the paper's "10 attempts
+per module"); success rate and time to success.
+
+Episodes are counted per env, so envs with short episodes do not weigh more: an env that has
+finished its quota keeps stepping (its further episodes are ignored) until all have.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from rl.vec_env import VecEnv
+
+Policy = Callable[[np.ndarray], np.ndarray]
+"""obs (N, obs_dim) float32 -> actions (N, act_dim) in [-1, 1]."""
+
+
+def evaluate(
+    policy_fn: Policy,
+    env: VecEnv,
+    episodes_per_env: int,
+    *,
+    seed: int | None = None,
+    max_steps: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
+
+    `seed` is passed to env.reset. `max_steps` (vector steps) guards against envs whose
+    episodes never end: RuntimeError when exceeded. `progress(done, total)` is called as
+    episodes finish. Returns a JSON-ready dict:
+        episodes                   N * episodes_per_env
+        success_rate               successes / episodes
+        successes                  count
+        time_to_success_s          list of seconds, one per success (episode order)
+        median_time_to_success_s   NaN when there is no success
+        mean_return, std_return    over episodes
+        mean_length                steps per episode
+        truncation_rate            fraction of episodes ended by truncation
+        per_env_success_rate       list (N,): success rate of each env
+        env_steps, seconds         work done
+    """
+    if episodes_per_env < 1:
+        raise ValueError(f"episodes_per_env = {episodes_per_env}: need at least 1")
+    n = env.num_envs
+    total = n * episodes_per_env
+    t0 = time.perf_counter()
+    counts = np.zeros(n, dtype=np.int64)
+    wins = np.zeros(n, dtype=np.int64)
+    returns: list[float] = []
+    lengths: list[int] = []
+    tts: list[float] = []
+    truncations = 0
+    steps = 0
+    obs = env.reset(seed)
+    while (counts < episodes_per_env).any():
+        if max_steps is not None and steps >= max_steps:
+            raise RuntimeError(
+                f"evaluation took more than max_steps = {max_steps} vector steps with "
+                f"{int((counts < episodes_per_env).sum())} envs short of {episodes_per_env} "
+                "episodes: do the env's episodes end (truncation)?"
+            )
+        obs, _, terminated, truncated, info = env.step(policy_fn(obs))
+        steps += 1
+        for i in np.flatnonzero((terminated | truncated) & (counts < episodes_per_env)):
+            ok = bool(info["success"][i])
+            wins[i] += ok
+            returns.append(float(info["episode_return"][i]))
+            lengths.append(int(info["episode_length"][i]))
+            if ok:
+                tts.append(float(info["time_to_success"][i]))
+            truncations += bool(truncated[i]) and not bool(terminated[i])
+            counts[i] += 1
+            if progress is not None:
+                progress(len(returns), total)
+    return {
+        "episodes": total,
+        "success_rate": float(wins.sum() / total),
+        "successes": int(wins.sum()),
+        "time_to_success_s": tts,
+        "median_time_to_success_s": float(np.median(tts)) if tts else float("nan"),
+        "mean_return": float(np.mean(returns)),
+        "std_return": float(np.std(returns)),
+        "mean_length": float(np.mean(lengths)),
+        "truncation_rate": truncations / total,
+        "per_env_success_rate": (wins / episodes_per_env).tolist(),
+        "env_steps": steps * n,
+        "seconds": time.perf_counter() - t0,
+    }

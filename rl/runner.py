@@ -1,0 +1,557 @@
+"""The training loop: builds the agent, steps the env, logs, checkpoints, resumes.
+
+    train(algo, env, preset, steps=..., minutes=..., seed=..., out_dir=..., resume=..., stack=...)
+
+One iteration = `agent.steps_per_iteration` vector steps (PPO: a rollout of `horizon`),
+then `agent.update`. Everything happens at iteration boundaries: a metrics row
+(out_dir/metrics.csv, TensorBoard in out_dir/tb when installed), and every
+`checkpoint_steps` env steps plus at the end a checkpoint (out_dir/checkpoint.safetensors,
+written atomically; see rl/checkpoint.py).
+
+Exact resume (an interrupted run resumed with --resume ends with the same weights as an
+uninterrupted one, on the same device and thread count) needs one of:
+  * an env with get_state/set_state (rl/vec_env.py): exact from any checkpoint;
+  * otherwise an env whose trajectories depend only on reset(seed) and the actions: the
+    runner re-seeds it, reset(seed=env_seed(seed, iteration)), right after every periodic
+    checkpoint (ending all episodes there; the cut episodes are bootstrapped like
+    truncations), and does the same on resume. Resuming from a periodic checkpoint (the
+    one a crash or kill leaves) is then exact; resuming from one written when a run
+    stopped on --steps/--minutes elsewhere is correct but not bit-identical.
+Counters, RNG states (torch CPU and CUDA, numpy's global, Python's), optimiser states, the
+SAC replay buffer and the episode-statistics window are all saved.
+A NaN/inf loss or action stops training with a message; the last good checkpoint is kept
+(a checkpoint is never written from non-finite weights).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import random
+import time
+from collections import deque
+from dataclasses import asdict, fields
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import torch
+from rich.console import Console
+
+from rl import checkpoint as ckpt
+from rl.nets import NonFiniteLossError
+from rl.ppo import PPO, PPOConfig
+from rl.presets import AlgoConfig, Setup, get_setup
+from rl.random_agent import RandomAgent, RandomConfig
+from rl.sac import SAC, SACConfig
+from rl.stack import StackObs
+from rl.vec_env import VecEnv
+
+ALGOS: dict[str, type] = {"ppo": PPOConfig, "sac": SACConfig, "random": RandomConfig}
+"""Algorithm name -> its config class."""
+CHECKPOINT = "checkpoint.safetensors"
+BASE_COLUMNS = (
+    "iteration",
+    "env_steps",
+    "wall_s",
+    "steps_per_s",
+    "episodes",
+    "success_rate",
+    "return_mean",
+    "length_mean",
+    "time_to_success_median",
+)
+
+console = Console(stderr=True, highlight=False)
+
+
+class Agent(Protocol):
+    """What the runner needs of an algorithm (PPO, SAC, RandomAgent)."""
+
+    steps_per_iteration: int
+    log_keys: tuple[str, ...]
+
+    def act(self, obs: np.ndarray) -> np.ndarray: ...
+    def policy(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray: ...
+    def process_step(
+        self,
+        next_obs: np.ndarray,
+        reward: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None: ...
+    def update(self, last_obs: np.ndarray) -> dict[str, float]: ...
+    def modules(self) -> dict[str, torch.nn.Module | torch.optim.Optimizer]: ...
+    def extra_state(self) -> tuple[dict[str, torch.Tensor], dict[str, Any]]: ...
+    def load_extra_state(
+        self, tensors: dict[str, torch.Tensor], values: dict[str, Any]
+    ) -> None: ...
+
+
+def build_agent(
+    algo: str,
+    obs_dim: int,
+    act_dim: int,
+    num_envs: int,
+    config: AlgoConfig,
+    device: str | torch.device,
+    seed: int = 0,
+) -> Agent:
+    """A fresh agent of `algo` ("ppo", "sac", "random")."""
+    if algo == "ppo":
+        return PPO(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
+    if algo == "sac":
+        return SAC(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
+    if algo == "random":
+        return RandomAgent(act_dim, seed, config)  # type: ignore[arg-type]
+    raise ValueError(f"unknown algorithm {algo!r}; valid algorithms: {sorted(ALGOS)}")
+
+
+def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
+    """Rebuild a config dataclass from its JSON form (lists back to tuples)."""
+    cls = ALGOS[algo]
+    tuples = {f.name for f in fields(cls) if isinstance(f.default, tuple)}
+    return cls(**{k: tuple(v) if k in tuples else v for k, v in d.items()})
+
+
+def env_seed(seed: int, iteration: int) -> int:
+    """The env seed used at `iteration` (0: the start) of a run seeded `seed`."""
+    return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
+
+
+def default_device() -> str:
+    """CUDA when present, else CPU."""
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
+def _jsonable(x: Any) -> Any:
+    return json.loads(json.dumps(x))
+
+
+# ----------------------------------------------------------------------------- statistics
+
+
+class EpisodeStats:
+    """The last `size` finished episodes: (return, length, success, time to success)."""
+
+    def __init__(self, size: int) -> None:
+        self.window: deque[tuple[float, int, bool, float]] = deque(maxlen=size)
+        self.total = 0
+
+    def add(self, done: np.ndarray, info: dict[str, Any]) -> None:
+        """Record the episodes that ended where done (N,) is True."""
+        for i in np.flatnonzero(done):
+            self.window.append(
+                (
+                    float(info["episode_return"][i]),
+                    int(info["episode_length"][i]),
+                    bool(info["success"][i]),
+                    float(info["time_to_success"][i]),
+                )
+            )
+            self.total += 1
+
+    def summary(self) -> dict[str, float]:
+        """Means over the window (NaN when empty)."""
+        if not self.window:
+            return {
+                k: math.nan
+                for k in ("success_rate", "return_mean", "length_mean", "time_to_success_median")
+            }
+        r, n, s, t = (np.array(c, dtype=float) for c in zip(*self.window, strict=True))
+        t = t[s > 0]
+        return {
+            "success_rate": float(s.mean()),
+            "return_mean": float(r.mean()),
+            "length_mean": float(n.mean()),
+            "time_to_success_median": float(np.median(t)) if len(t) else math.nan,
+        }
+
+    def state(self) -> dict[str, Any]:
+        return {"window": [list(w) for w in self.window], "total": self.total}
+
+    def load(self, state: dict[str, Any]) -> None:
+        self.window.extend(tuple(w) for w in state["window"])
+        self.total = state["total"]
+
+
+class MetricsLog:
+    """metrics.csv (fixed columns) and, when tensorboard is installed, TensorBoard scalars."""
+
+    def __init__(
+        self,
+        out_dir: Path,
+        columns: tuple[str, ...],
+        resume_iteration: int | None,
+        tensorboard: bool,
+    ) -> None:
+        self.path = out_dir / "metrics.csv"
+        self.columns = columns
+        rows: list[dict[str, str]] = []
+        if resume_iteration is not None and self.path.exists():
+            # drop rows logged after the checkpoint: the resumed run logs them again
+            with open(self.path, newline="") as f:
+                rows = [r for r in csv.DictReader(f) if int(r["iteration"]) <= resume_iteration]
+        with open(self.path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=columns)
+            w.writeheader()
+            w.writerows(rows)
+        self.tb = None
+        if tensorboard:
+            try:
+                from torch.utils.tensorboard import SummaryWriter
+            except ImportError:
+                console.print("tensorboard is not installed: logging to metrics.csv only")
+            else:
+                self.tb = SummaryWriter(str(out_dir / "tb"), purge_step=resume_iteration)
+
+    def write(self, row: dict[str, float]) -> None:
+        with open(self.path, "a", newline="") as f:
+            csv.DictWriter(f, fieldnames=self.columns).writerow(
+                {k: row.get(k, "") for k in self.columns}
+            )
+        if self.tb is not None:
+            step = int(row["env_steps"])
+            for k, v in row.items():
+                if k not in ("iteration", "env_steps") and not math.isnan(v):
+                    self.tb.add_scalar(k, v, step)
+
+    def close(self) -> None:
+        if self.tb is not None:
+            self.tb.close()
+
+
+# ----------------------------------------------------------------------------- checkpoints
+
+
+def _rng_state(tensors: dict[str, torch.Tensor]) -> dict[str, Any]:
+    tensors["rng/torch"] = torch.get_rng_state()
+    if torch.cuda.is_available():
+        for i, s in enumerate(torch.cuda.get_rng_state_all()):
+            tensors[f"rng/cuda/{i}"] = s
+    # numpy's legacy global generator: rl/ does not use it, envs and user code may
+    np_state = np.random.get_state(legacy=False)  # noqa: NPY002
+    key = np_state["state"]["key"].astype(np.int64)  # uint32: stored as int64
+    tensors["rng/numpy_key"] = torch.from_numpy(key)
+    return {
+        "numpy": {k: v for k, v in np_state.items() if k != "state"}
+        | {"pos": np_state["state"]["pos"]},
+        "python": random.getstate(),
+        "cuda_devices": torch.cuda.device_count() if torch.cuda.is_available() else 0,
+    }
+
+
+def _load_rng_state(doc: dict[str, Any], tensors: dict[str, torch.Tensor]) -> None:
+    torch.set_rng_state(tensors["rng/torch"])
+    if torch.cuda.is_available() and doc["cuda_devices"] == torch.cuda.device_count():
+        torch.cuda.set_rng_state_all([tensors[f"rng/cuda/{i}"] for i in range(doc["cuda_devices"])])
+    n = doc["numpy"]
+    key = tensors["rng/numpy_key"].numpy().astype(np.uint32)
+    np_state = {
+        "bit_generator": n["bit_generator"],
+        "has_gauss": n["has_gauss"],
+        "gauss": n["gauss"],
+        "state": {"key": key, "pos": n["pos"]},
+    }
+    np.random.set_state(np_state)  # noqa: NPY002
+    v, internal, gauss = doc["python"]
+    random.setstate((v, tuple(internal), gauss))
+
+
+def _finite(agent: Agent) -> bool:
+    return all(
+        torch.isfinite(p).all()
+        for m in agent.modules().values()
+        if isinstance(m, torch.nn.Module)
+        for p in m.state_dict().values()
+        if p.is_floating_point()
+    )
+
+
+def run_meta(algo: str, config: AlgoConfig, env: VecEnv, stack: int, seed: int) -> dict[str, Any]:
+    """What must match between a checkpoint and the run that resumes it."""
+    return _jsonable(
+        {
+            "algo": algo,
+            "config": asdict(config),
+            "obs_dim": env.obs_dim,
+            "act_dim": env.act_dim,
+            "stack": stack,
+            "num_envs": env.num_envs,
+            "seed": seed,
+        }
+    )
+
+
+def save_run(
+    path: Path,
+    meta: dict[str, Any],
+    agent: Agent,
+    counters: dict[str, Any],
+    stats: EpisodeStats,
+    env: VecEnv,
+    obs: np.ndarray,
+) -> None:
+    """Write the checkpoint of a run at an iteration boundary."""
+    tensors: dict[str, torch.Tensor] = {}
+    extra_t, extra_v = agent.extra_state()
+    doc = {
+        "run": meta,
+        "counters": counters,
+        "agent": ckpt.pack_modules(agent.modules(), "agent", tensors),
+        "agent_extra": {"values": extra_v, "tensors": ckpt.pack(extra_t, "extra", tensors)},
+        "rng": _rng_state(tensors),
+        "episodes": stats.state(),
+        "env": None,
+        "versions": {"torch": torch.__version__, "numpy": np.__version__},
+    }
+    if hasattr(env, "get_state"):
+        doc["env"] = {
+            "state": ckpt.pack(env.get_state(), "env", tensors),
+            "obs": ckpt.pack(np.asarray(obs), "obs", tensors),
+        }
+    ckpt.save(path, tensors, _jsonable(doc))
+
+
+def load_agent(
+    path: str | Path, device: str | torch.device | None = None
+) -> tuple[Agent, dict[str, Any]]:
+    """(agent with the checkpoint's weights, its run metadata: algo, config, obs_dim,
+    act_dim, stack, num_envs, seed) from a checkpoint file or a run folder."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / CHECKPOINT
+    tensors, doc = ckpt.load(path)
+    meta = doc["run"]
+    if meta["algo"] not in ALGOS:
+        raise ckpt.CheckpointError(f"{path}: unknown algorithm {meta['algo']!r}")
+    agent = build_agent(
+        meta["algo"],
+        meta["obs_dim"],
+        meta["act_dim"],
+        meta["num_envs"],
+        config_from_dict(meta["algo"], meta["config"]),
+        device or default_device(),
+        meta["seed"],
+    )
+    ckpt.load_modules(agent.modules(), doc["agent"], tensors)
+    return agent, meta
+
+
+# ----------------------------------------------------------------------------- train
+
+
+def train(
+    algo: str,
+    env: VecEnv,
+    preset: str | Setup = "cpu",
+    *,
+    steps: int | None = None,
+    minutes: float | None = None,
+    seed: int = 0,
+    out_dir: str | Path,
+    resume: bool = False,
+    stack: int = 1,
+    device: str | torch.device | None = None,
+    progress: bool = True,
+    tensorboard: bool = True,
+) -> dict[str, Any]:
+    """Train `algo` ("ppo", "sac", "random") on `env` (the rl/vec_env.py contract).
+
+    preset: a name from rl/presets.py or a Setup. steps: total env steps (summed over envs,
+    counted from the run's start, rounded up to whole iterations); minutes: wall-clock
+    limit of this call; neither: the preset's total_steps. stack > 1 wraps the env in
+    StackObs(env, stack). resume continues the run saved in out_dir (same settings
+    required). Returns {"status": "done" | "nan" | "interrupted", "iterations",
+    "env_steps", "seconds", "episodes", "checkpoint", "metrics" (the last row)}.
+    """
+    setup = get_setup(preset, algo) if isinstance(preset, str) else preset
+    config = setup.config
+    if stack > 1:
+        env = StackObs(env, stack)
+    elif stack < 1:
+        raise ValueError(f"stack = {stack}: stack at least 1 observation (1 = no stacking)")
+    if steps is None and minutes is None:
+        steps = setup.total_steps
+    device = torch.device(device or default_device())
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / CHECKPOINT
+    meta = run_meta(algo, config, env, stack, seed)
+    n = env.num_envs
+
+    # seeding before the networks are built makes their initialisation reproducible
+    torch.manual_seed(seed)
+    np.random.seed(seed)  # noqa: NPY002 (for envs and user code that use the global one)
+    random.seed(seed)
+    agent = build_agent(algo, env.obs_dim, env.act_dim, n, config, device, seed)
+    stats = EpisodeStats(max(100, n))
+    iteration = env_steps = 0
+    wall = 0.0
+    stateful = hasattr(env, "get_state") and hasattr(env, "set_state")
+
+    if resume:
+        tensors, doc = ckpt.load(path)
+        ckpt.check_compatible(doc["run"], meta, path)
+        ckpt.load_modules(agent.modules(), doc["agent"], tensors)
+        extra = doc["agent_extra"]
+        agent.load_extra_state(ckpt.unpack(extra["tensors"], tensors), extra["values"])
+        _load_rng_state(doc["rng"], tensors)
+        stats.load(doc["episodes"])
+        c = doc["counters"]
+        iteration, env_steps, wall = c["iteration"], c["env_steps"], c["wall_s"]
+        if stateful:
+            if doc["env"] is None:
+                raise ckpt.CheckpointError(f"{path} holds no env state, but this env has one")
+            env.set_state(ckpt.unpack(doc["env"]["state"], tensors))  # type: ignore[attr-defined]
+            obs = np.asarray(ckpt.unpack(doc["env"]["obs"], tensors))
+        else:
+            obs = env.reset(seed=env_seed(seed, iteration))
+        console.print(f"resumed {path} at iteration {iteration}, {env_steps:,} env steps")
+    else:
+        if path.exists():
+            raise ckpt.CheckpointError(
+                f"{out_dir} already holds a run ({CHECKPOINT}): pass --resume to continue it, "
+                "or choose another --out folder"
+            )
+        obs = env.reset(seed=env_seed(seed, 0))
+    (out_dir / "config.json").write_text(json.dumps(meta | {"device": str(device)}, indent=2))
+
+    spi = agent.steps_per_iteration
+    per_iter = n * spi
+    ckpt_every = max(1, math.ceil(setup.checkpoint_steps / per_iter))
+    log = MetricsLog(
+        out_dir, BASE_COLUMNS + tuple(agent.log_keys), iteration if resume else None, tensorboard
+    )
+    bar = _Progress(progress, steps, env_steps)
+    t_start = time.perf_counter()
+    status, row = "done", {}
+    last_saved = iteration if resume else None
+    try:
+        while True:
+            if steps is not None and env_steps >= steps:
+                break
+            if minutes is not None and time.perf_counter() - t_start >= 60.0 * minutes:
+                break
+            t_iter = time.perf_counter()
+            for _ in range(spi):
+                actions = agent.act(obs)
+                if not np.isfinite(actions).all():
+                    raise NonFiniteLossError(
+                        "the policy produced NaN/inf actions: its weights or the observations "
+                        "are not finite"
+                    )
+                next_obs, reward, terminated, truncated, info = env.step(actions)
+                agent.process_step(next_obs, reward, terminated, truncated, info)
+                stats.add(np.asarray(terminated) | np.asarray(truncated), info)
+                obs = next_obs
+            losses = agent.update(obs)
+            if not _finite(agent):
+                raise NonFiniteLossError("the weights became NaN/inf in the last update")
+            iteration += 1
+            env_steps += per_iter
+            dt = time.perf_counter() - t_iter
+            wall += dt
+            row = {
+                "iteration": iteration,
+                "env_steps": env_steps,
+                "wall_s": wall,
+                "steps_per_s": per_iter / dt,
+                "episodes": stats.total,
+                **stats.summary(),
+                **losses,
+            }
+            log.write(row)
+            bar.update(per_iter, row)
+            if iteration % ckpt_every == 0:
+                _save(path, meta, agent, iteration, env_steps, wall, stats, env, obs)
+                last_saved = iteration
+                if not stateful:  # the re-seed a resumed run repeats (see module doc)
+                    obs = env.reset(seed=env_seed(seed, iteration))
+        if last_saved != iteration:
+            _save(path, meta, agent, iteration, env_steps, wall, stats, env, obs)
+    except NonFiniteLossError as e:
+        status = "nan"
+        kept = (
+            f"the checkpoint of iteration {last_saved} is kept"
+            if last_saved is not None
+            else "no checkpoint had been written yet"
+        )
+        console.print(f"[bold red]training stopped at iteration {iteration + 1}:[/] {e}; {kept}")
+    except KeyboardInterrupt:
+        status = "interrupted"
+        console.print(
+            f"interrupted at iteration {iteration}; the checkpoint of iteration {last_saved} "
+            "is kept: continue with --resume"
+        )
+    finally:
+        bar.close()
+        log.close()
+    return {
+        "status": status,
+        "iterations": iteration,
+        "env_steps": env_steps,
+        "seconds": wall,
+        "episodes": stats.total,
+        "checkpoint": str(path) if path.exists() else None,
+        "metrics": row,
+    }
+
+
+def _save(
+    path: Path,
+    meta: dict[str, Any],
+    agent: Agent,
+    iteration: int,
+    env_steps: int,
+    wall: float,
+    stats: EpisodeStats,
+    env: VecEnv,
+    obs: np.ndarray,
+) -> None:
+    counters = {"iteration": iteration, "env_steps": env_steps, "wall_s": wall}
+    save_run(path, meta, agent, counters, stats, env, obs)
+
+
+class _Progress:
+    """A rich progress bar over env steps (or elapsed time only when there is no total)."""
+
+    def __init__(self, enabled: bool, total: int | None, done: int) -> None:
+        self.p = None
+        if not enabled:
+            return
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.p = Progress(
+            TextColumn("[bold]train"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[info]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=console,
+        )
+        self.p.start()
+        self.task = self.p.add_task("train", total=total, completed=done, info="")
+
+    def update(self, advance: int, row: dict[str, float]) -> None:
+        if self.p is None:
+            return
+        info = (
+            f"{row['steps_per_s']:,.0f} steps/s  success {row['success_rate']:.1%}  "
+            f"return {row['return_mean']:.3f}"
+        )
+        self.p.update(self.task, advance=advance, info=info)
+
+    def close(self) -> None:
+        if self.p is not None:
+            self.p.stop()

@@ -1,0 +1,341 @@
+"""Soft Actor-Critic (Haarnoja et al. 2018): twin Q, Polyak-averaged targets, fixed or
+learned entropy temperature, a replay buffer and a uniform-random warm-up. One file.
+
+The runner drives it: `act(obs)` then `process_step(...)` every env step (which stores the
+transitions and runs the gradient steps); `update(last_obs)` at iteration boundaries only
+reports the mean losses since the last call.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from rl.nets import QNetwork, SquashedGaussianActor, check_finite
+
+
+@dataclass(frozen=True)
+class SACConfig:
+    """SAC hyperparameters (defaults: paper Table II and the original implementation)."""
+
+    hidden: tuple[int, ...] = (512, 512)
+    """Hidden layer widths of the actor and of each Q MLP."""
+    activation: str = "relu"
+    """Hidden-layer activation: relu (the usual SAC choice, cheapest on CPU), elu or tanh."""
+    learning_rate: float = 8e-5
+    """Adam learning rate of the actor, the critics and the temperature."""
+    gamma: float = 0.997
+    """Discount factor."""
+    tau: float = 0.005
+    """Polyak factor of the target critics: theta' <- tau theta + (1 - tau) theta'."""
+    batch_size: int = 4096
+    """Transitions per gradient step."""
+    buffer_size: int = 20_000_000
+    """Replay buffer capacity, transitions."""
+    warmup_steps: int = 500_000
+    """Transitions (summed over envs) taken with uniform random actions, and collected
+    before the first gradient step."""
+    gradient_steps: float = 8.0
+    """Gradient steps per vector-env step (fractions accumulate: 0.25 = one every 4)."""
+    entropy_coef: float = 3e-4
+    """Temperature alpha (fixed), or its initial value when `learn_entropy`."""
+    learn_entropy: bool = False
+    """Learn alpha so the policy's entropy tracks `target_entropy`."""
+    target_entropy: float | None = None
+    """Entropy target when learning alpha (None: -act_dim)."""
+    reward_scale: float = 1.0
+    """Rewards are multiplied by this before learning (logged returns are not)."""
+    steps_per_iteration: int = 64
+    """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
+
+    def validate(self) -> SACConfig:
+        checks = {
+            "batch_size >= 1": self.batch_size >= 1,
+            "buffer_size >= batch_size": self.buffer_size >= self.batch_size,
+            "0 < tau <= 1": 0 < self.tau <= 1,
+            "0 < gamma <= 1": 0 < self.gamma <= 1,
+            "gradient_steps >= 0": self.gradient_steps >= 0,
+            "entropy_coef > 0": self.entropy_coef > 0,
+            "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
+        }
+        bad = [k for k, ok in checks.items() if not ok]
+        if bad:
+            raise ValueError(f"SACConfig: these must hold: {bad}")
+        return self
+
+
+def soft_target(
+    reward: torch.Tensor,
+    terminated: torch.Tensor,
+    next_q1: torch.Tensor,
+    next_q2: torch.Tensor,
+    next_logp: torch.Tensor,
+    gamma: float,
+    alpha: float | torch.Tensor,
+) -> torch.Tensor:
+    """The soft Bellman target, all inputs (B,), a' ~ pi(. | s'):
+    y = r + gamma (1 - terminated) (min(Q1'(s', a'), Q2'(s', a')) - alpha log pi(a' | s'))."""
+    soft_v = torch.min(next_q1, next_q2) - alpha * next_logp
+    return reward + gamma * (1.0 - terminated) * soft_v
+
+
+class ReplayBuffer:
+    """A ring of transitions (obs, action, reward, next_obs, terminated) on `device`.
+
+    next_obs is info["final_obs"] where an episode ended, so truncated transitions are
+    bootstrapped and terminated ones are not. Memory is taken at the first `add` or `load`
+    (an agent loaded only to act never allocates it): capacity * (2 obs_dim + act_dim + 2)
+    float32 values.
+    """
+
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int, device: torch.device) -> None:
+        self.capacity, self.device = capacity, device
+        self.shapes = {"obs": (obs_dim,), "action": (act_dim,), "reward": (),
+                       "next_obs": (obs_dim,), "terminated": ()}  # fmt: skip
+        self.data: dict[str, torch.Tensor] = {}
+        self.pos = 0
+        self.size = 0
+
+    def _allocate(self) -> None:
+        if not self.data:
+            self.data = {
+                k: torch.empty(self.capacity, *s, device=self.device)
+                for k, s in self.shapes.items()
+            }
+
+    def add(self, **batch: torch.Tensor) -> None:
+        """Append a batch (n, ...) of each field, overwriting the oldest when full."""
+        self._allocate()
+        n = len(batch["reward"])
+        idx = ((self.pos + torch.arange(n)) % self.capacity).to(self.device)
+        for k, v in batch.items():
+            self.data[k][idx] = v
+        self.pos = (self.pos + n) % self.capacity
+        self.size = min(self.size + n, self.capacity)
+
+    def sample(self, n: int) -> dict[str, torch.Tensor]:
+        """n transitions drawn uniformly with replacement (torch's global CPU RNG)."""
+        idx = torch.randint(0, self.size, (n,)).to(self.device)
+        return {k: v[idx] for k, v in self.data.items()}
+
+    def state(self) -> tuple[dict[str, torch.Tensor], dict[str, int]]:
+        """(the filled part of every field, the counters) for a checkpoint."""
+        counters = {"pos": self.pos, "size": self.size}
+        return {k: v[: self.size] for k, v in self.data.items()}, counters
+
+    def load(self, tensors: dict[str, torch.Tensor], counters: dict[str, int]) -> None:
+        size = counters["size"]
+        if size > self.capacity:
+            raise ValueError(f"a buffer of {size} transitions does not fit {self.capacity}")
+        if size:
+            self._allocate()
+        for k, v in tensors.items():
+            self.data[k][:size] = v
+        self.pos, self.size = counters["pos"], size
+
+
+class SAC:
+    """SAC agent with its replay buffer, for `num_envs` envs."""
+
+    log_keys = ("q_loss", "policy_loss", "entropy", "q_mean", "alpha", "buffer_size")
+    """What `update` reports (the runner's log columns)."""
+
+    def __init__(
+        self,
+        obs_dim: int,
+        act_dim: int,
+        num_envs: int,
+        cfg: SACConfig,
+        device: str | torch.device = "cpu",
+    ) -> None:
+        self.cfg = cfg.validate()
+        self.device = torch.device(device)
+        self.num_envs, self.act_dim = num_envs, act_dim
+        h, f = cfg.hidden, cfg.activation
+        self.actor = SquashedGaussianActor(obs_dim, act_dim, h, f).to(self.device)
+        self.q1 = QNetwork(obs_dim, act_dim, h, f).to(self.device)
+        self.q2 = QNetwork(obs_dim, act_dim, h, f).to(self.device)
+        self.q1_target, self.q2_target = copy.deepcopy(self.q1), copy.deepcopy(self.q2)
+        for p in [*self.q1_target.parameters(), *self.q2_target.parameters()]:
+            p.requires_grad_(False)
+        self.log_alpha = torch.tensor(
+            float(np.log(cfg.entropy_coef)), device=self.device, requires_grad=cfg.learn_entropy
+        )
+        self.target_entropy = -float(act_dim) if cfg.target_entropy is None else cfg.target_entropy
+        lr = cfg.learning_rate
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=lr, foreach=True)
+        self.q_opt = torch.optim.Adam(
+            [*self.q1.parameters(), *self.q2.parameters()], lr=lr, foreach=True
+        )
+        self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=lr, foreach=True)
+        self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim, act_dim, self.device)
+        self.steps_per_iteration = cfg.steps_per_iteration
+        self.env_steps = 0  # transitions collected, summed over envs
+        self.grad_steps = 0
+        self._credit = 0.0  # gradient steps owed (fractional gradient_steps accumulate)
+        self._obs: torch.Tensor | None = None
+        self._action: torch.Tensor | None = None
+        self._online_params = [*self.q1.parameters(), *self.q2.parameters()]
+        self._target_params = [*self.q1_target.parameters(), *self.q2_target.parameters()]
+        self._sums: dict[str, torch.Tensor] = {}
+        self._n_sums = 0
+
+    def _t(self, a: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device)
+
+    @property
+    def alpha(self) -> torch.Tensor:
+        return self.log_alpha.detach().exp()
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions (N, act_dim) in [-1, 1] for obs (N, obs_dim): uniform during warm-up,
+        else sampled from the policy."""
+        o = self._t(obs)
+        if self.env_steps < self.cfg.warmup_steps:
+            a = torch.rand(len(o), self.act_dim, device=self.device) * 2.0 - 1.0
+        else:
+            a, _ = self.actor(o)
+        self._obs, self._action = o, a
+        return a.cpu().numpy()
+
+    @torch.no_grad()
+    def policy(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """Actions (N, act_dim) for obs (N, obs_dim): tanh(mean) when deterministic."""
+        return self.actor(self._t(obs), deterministic)[0].cpu().numpy()
+
+    def process_step(
+        self,
+        next_obs: np.ndarray,
+        reward: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None:
+        """Store the N transitions of the last `act`, then run the gradient steps owed."""
+        done = np.asarray(terminated) | np.asarray(truncated)
+        nxt = np.where(done[:, None], info["final_obs"], next_obs)
+        assert self._obs is not None and self._action is not None, "call act() first"
+        self.buffer.add(
+            obs=self._obs,
+            action=self._action,
+            reward=self._t(reward) * self.cfg.reward_scale,
+            next_obs=self._t(nxt),
+            terminated=self._t(terminated),
+        )
+        self.env_steps += len(reward)
+        if self.env_steps < max(self.cfg.warmup_steps, self.cfg.batch_size):
+            return
+        self._credit += self.cfg.gradient_steps
+        while self._credit >= 1.0:
+            self._credit -= 1.0
+            self._gradient_step()
+
+    def _gradient_step(self) -> None:
+        cfg = self.cfg
+        b = self.buffer.sample(cfg.batch_size)
+        alpha = self.alpha
+        with torch.no_grad():
+            next_a, next_logp = self.actor(b["next_obs"])
+            y = soft_target(
+                b["reward"],
+                b["terminated"],
+                self.q1_target(b["next_obs"], next_a),
+                self.q2_target(b["next_obs"], next_a),
+                next_logp,
+                cfg.gamma,
+                alpha,
+            )
+        # L_Q = E[(Q1(s, a) - y)^2 + (Q2(s, a) - y)^2]
+        q1, q2 = self.q1(b["obs"], b["action"]), self.q2(b["obs"], b["action"])
+        q_loss = (q1 - y).pow(2).mean() + (q2 - y).pow(2).mean()
+        check_finite("SAC critic", q_loss, q1=q1.mean(), target=y.mean())
+        self.q_opt.zero_grad(set_to_none=True)
+        q_loss.backward()
+        self.q_opt.step()
+
+        # L_pi = E[alpha log pi(a|s) - min(Q1, Q2)(s, a)], a ~ pi(.|s) reparameterised;
+        # the critics are frozen meanwhile (no weight gradients to compute for them)
+        self._critics_grad(False)
+        a, logp = self.actor(b["obs"])
+        q = torch.min(self.q1(b["obs"], a), self.q2(b["obs"], a))
+        pi_loss = (alpha * logp - q).mean()
+        check_finite("SAC actor", pi_loss, log_pi=logp.mean(), q=q.mean())
+        self.actor_opt.zero_grad(set_to_none=True)
+        pi_loss.backward()
+        self.actor_opt.step()
+        self._critics_grad(True)
+
+        if cfg.learn_entropy:
+            # L_alpha = E[-log alpha (log pi(a|s) + H_target)]
+            alpha_loss = -(self.log_alpha * (logp.detach() + self.target_entropy)).mean()
+            self.alpha_opt.zero_grad(set_to_none=True)
+            alpha_loss.backward()
+            self.alpha_opt.step()
+
+        with torch.no_grad():  # theta' <- theta' + tau (theta - theta')
+            torch._foreach_lerp_(self._target_params, self._online_params, cfg.tau)
+        self.grad_steps += 1
+        for k, v in (
+            ("q_loss", q_loss),
+            ("policy_loss", pi_loss),
+            ("entropy", -logp.mean()),
+            ("q_mean", q1.mean()),
+        ):
+            self._sums[k] = self._sums.get(k, 0.0) + v.detach()  # .item() once per iteration
+        self._n_sums += 1
+
+    def _critics_grad(self, on: bool) -> None:
+        for p in self._online_params:
+            p.requires_grad_(on)
+
+    def update(self, last_obs: np.ndarray) -> dict[str, float]:
+        """Mean losses of the gradient steps since the last call (SAC learns every step)."""
+        del last_obs
+        out = {k: float(v) / self._n_sums for k, v in self._sums.items()} if self._n_sums else {}
+        out["alpha"] = self.alpha.item()
+        out["buffer_size"] = float(self.buffer.size)
+        self._sums, self._n_sums = {}, 0
+        return out
+
+    # ---------------------------------------------------------------- checkpoints
+
+    def modules(self) -> dict[str, torch.nn.Module | torch.optim.Optimizer]:
+        """What a checkpoint holds (name -> module or optimizer)."""
+        return {
+            "actor": self.actor,
+            "q1": self.q1,
+            "q2": self.q2,
+            "q1_target": self.q1_target,
+            "q2_target": self.q2_target,
+            "actor_opt": self.actor_opt,
+            "q_opt": self.q_opt,
+            "alpha_opt": self.alpha_opt,
+        }
+
+    def extra_state(self) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
+        """(tensors, JSON-able values) beyond the modules: the temperature, the filled replay
+        buffer and the counters."""
+        data, counters = self.buffer.state()
+        tensors = {
+            "log_alpha": self.log_alpha.detach(),
+            **{f"buffer/{k}": v for k, v in data.items()},
+        }
+        return tensors, {
+            "buffer": counters,
+            "env_steps": self.env_steps,
+            "grad_steps": self.grad_steps,
+            "credit": self._credit,
+        }
+
+    def load_extra_state(self, tensors: dict[str, torch.Tensor], values: dict[str, Any]) -> None:
+        with torch.no_grad():
+            self.log_alpha.copy_(tensors["log_alpha"])
+        data = {k.removeprefix("buffer/"): v for k, v in tensors.items() if k.startswith("buffer/")}
+        self.buffer.load(data, values["buffer"])
+        self.env_steps, self.grad_steps = values["env_steps"], values["grad_steps"]
+        self._credit = values["credit"]

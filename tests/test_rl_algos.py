@@ -1,0 +1,138 @@
+"""PPO and SAC against hand-computed values; networks; short smoke runs of every agent."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from rl.nets import ActorCritic, RunningNorm, SquashedGaussianActor
+from rl.ppo import PPO, PPOConfig, gae
+from rl.random_agent import RandomAgent
+from rl.runner import train
+from rl.sac import SAC, SACConfig, soft_target
+from rl.toy_env import ToyEnv
+
+torch.set_num_threads(1)
+
+# Three steps, two envs, gamma 0.9, lambda 0.8.
+#   env 0: rewards 1, 2, 3; V(s_0..s_2) = 0.5, 1.0, 1.5; terminated at t = 1; V(s_3) = 2.0
+#     t=2: delta = 3 + 0.9 * 2.0 - 1.5 = 3.3                A = 3.3
+#     t=1: delta = 2 + 0 - 1.0 = 1.0 (terminal)            A = 1.0 (the recursion stops)
+#     t=0: delta = 1 + 0.9 * 1.0 - 0.5 = 1.4               A = 1.4 + 0.9 * 0.8 * 1.0 = 2.12
+#   env 1: rewards 1, 1, 1; V = 1, 2, 3; truncated at t = 0 with V(final_obs) = 4; V(s_3) = 5
+#     t=2: delta = 1 + 0.9 * 5 - 3 = 2.5                   A = 2.5
+#     t=1: delta = 1 + 0.9 * 3 - 2 = 1.7                   A = 1.7 + 0.72 * 2.5 = 3.5
+#     t=0: delta = 1 + 0.9 * 4 - 1 = 3.6 (bootstrapped)    A = 3.6 (the recursion stops)
+GAMMA, LAM = 0.9, 0.8
+ADV = [[2.12, 3.6], [1.0, 3.5], [3.3, 2.5]]
+VALUES = [[0.5, 1.0], [1.0, 2.0], [1.5, 3.0]]
+
+
+def test_gae_hand_computed() -> None:
+    t = lambda x: torch.tensor(x, dtype=torch.float64)  # noqa: E731
+    rewards, values = t([[1, 1], [2, 1], [3, 1]]), t(VALUES)
+    next_values = t([[1.0, 4.0], [1.5, 3.0], [2.0, 5.0]])  # env 1, t=0: V(final_obs)
+    terminated = t([[0, 0], [1, 0], [0, 0]])
+    done = t([[0, 1], [1, 0], [0, 0]])
+    adv, ret = gae(rewards, values, next_values, terminated, done, GAMMA, LAM)
+    np.testing.assert_allclose(adv, ADV, rtol=1e-12)
+    np.testing.assert_allclose(ret, np.add(ADV, VALUES), rtol=1e-12)
+
+
+def test_ppo_rollout_bootstraps_truncation_from_final_obs() -> None:
+    """The same example through PPO's storage: V(s) is read from obs[0] (a stub critic)."""
+    cfg = PPOConfig(hidden=(4,), horizon=3, gamma=GAMMA, gae_lambda=LAM, normalize_obs=False)
+    agent = PPO(1, 1, 2, cfg)
+    agent.net.value = lambda o: o[:, 0]  # type: ignore[method-assign]
+    o = lambda *v: np.array(v, np.float32)[:, None]  # noqa: E731
+    steps = [  # obs, reward, terminated, truncated, final_obs
+        (o(0.5, 1.0), [1, 1], [False, False], [False, True], o(9.0, 4.0)),
+        (o(1.0, 2.0), [2, 1], [True, False], [False, False], o(9.0, 9.0)),
+        (o(1.5, 3.0), [3, 1], [False, False], [False, False], o(9.0, 9.0)),
+    ]
+    for obs, r, term, trunc, final in steps:
+        agent.act(obs)
+        agent.process_step(obs, np.array(r), np.array(term), np.array(trunc), {"final_obs": final})
+    adv, ret = agent.compute_returns(o(2.0, 5.0))
+    np.testing.assert_allclose(adv.numpy(), ADV, rtol=1e-6)
+    np.testing.assert_allclose(ret.numpy(), np.add(ADV, VALUES), rtol=1e-6)
+
+
+def test_sac_target_hand_computed() -> None:
+    # y = r + gamma (1 - term) (min(Q1', Q2') - alpha log pi), gamma 0.99, alpha 0.2
+    #   sample 0: 1 + 0.99 * (min(2.0, 1.5) - 0.2 * -1.0) = 1 + 0.99 * 1.7 = 2.683
+    #   sample 1: terminal: 0.5
+    y = soft_target(
+        torch.tensor([1.0, 0.5]), torch.tensor([0.0, 1.0]), torch.tensor([2.0, 3.0]),
+        torch.tensor([1.5, 4.0]), torch.tensor([-1.0, 0.5]), 0.99, 0.2,
+    )  # fmt: skip
+    np.testing.assert_allclose(y.numpy(), [2.683, 0.5], rtol=1e-6)
+
+
+def test_sac_stores_final_obs_and_terminal_flags() -> None:
+    agent = SAC(2, 1, 3, SACConfig(hidden=(4,), batch_size=2, buffer_size=5, warmup_steps=100))
+    obs = np.zeros((3, 2), np.float32)
+    nxt = np.ones((3, 2), np.float32)
+    final = np.full((3, 2), 7.0, np.float32)
+    agent.act(obs)
+    term, trunc = np.array([True, False, False]), np.array([False, True, False])
+    agent.process_step(nxt, np.array([1.0, 2.0, 3.0]), term, trunc, {"final_obs": final})
+    d = agent.buffer.data
+    np.testing.assert_array_equal(d["next_obs"][:3, 0], [7.0, 7.0, 1.0])
+    np.testing.assert_array_equal(d["terminated"][:3], [1.0, 0.0, 0.0])
+    agent.act(obs)
+    no = np.zeros(3, bool)
+    agent.process_step(nxt, np.zeros(3), no, no, {"final_obs": final})
+    assert agent.buffer.size == 5 and agent.buffer.pos == 1  # the ring wrapped
+
+
+def test_running_norm_matches_numpy() -> None:
+    rng = np.random.default_rng(0)
+    x = rng.normal(3.0, 2.0, (1000, 3))
+    norm = RunningNorm(3)
+    for chunk in np.array_split(x, 7):
+        norm.update(torch.as_tensor(chunk))
+    np.testing.assert_allclose(norm.mean.numpy(), x.mean(0), rtol=1e-10)
+    np.testing.assert_allclose(norm.var.numpy(), x.var(0), rtol=1e-10)
+
+
+def test_log_probs() -> None:
+    mean, std, a = torch.tensor([[0.0, 1.0]]), torch.tensor([1.0, 2.0]), torch.tensor([[1.0, 1.0]])
+    want = -0.5 - 0.5 * math.log(2 * math.pi) + (-math.log(2.0) - 0.5 * math.log(2 * math.pi))
+    assert ActorCritic.log_prob(mean, std, a).item() == pytest.approx(want)
+    actor = SquashedGaussianActor(3, 2, (8,))
+    a, logp = actor(torch.zeros(4, 3))
+    assert a.shape == (4, 2) and logp.shape == (4,) and (a.abs() < 1).all()
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "random"])
+@pytest.mark.parametrize("stack", [1, 3])
+def test_smoke_train(algo: str, stack: int, tmp_path) -> None:
+    from rl.presets import Setup
+    from rl.random_agent import RandomConfig
+
+    cfg = {
+        "ppo": PPOConfig(hidden=(16, 16), horizon=8, minibatch_size=32, epochs=2),
+        "sac": SACConfig(hidden=(16, 16), batch_size=16, buffer_size=500, warmup_steps=32,
+                         gradient_steps=0.5, steps_per_iteration=8),
+        "random": RandomConfig(steps_per_iteration=8),
+    }[algo]  # fmt: skip
+    env = ToyEnv(4, max_steps=10)
+    r = train(algo, env, Setup(cfg, 4, 256, 128), seed=1, out_dir=tmp_path, stack=stack,
+              progress=False, tensorboard=False)  # fmt: skip
+    assert r["status"] == "done" and r["env_steps"] == 256 and r["iterations"] == 8
+    assert r["episodes"] > 0 and math.isfinite(r["metrics"]["return_mean"])
+    lines = (tmp_path / "metrics.csv").read_text().splitlines()
+    assert len(lines) == 1 + 8
+    if algo == "sac":
+        assert r["metrics"]["q_loss"] > 0
+
+
+def test_random_agent_is_seeded() -> None:
+    obs = np.zeros((5, 3))
+    a, b = RandomAgent(2, seed=4)(obs), RandomAgent(2, seed=4)(obs)
+    np.testing.assert_array_equal(a, b)
+    assert a.shape == (5, 2) and np.abs(a).max() <= 1

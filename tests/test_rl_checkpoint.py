@@ -1,0 +1,105 @@
+"""Checkpoints: round trip, corrupt files, checkpoints of another configuration."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from rl import checkpoint as ckpt
+from rl.ppo import PPOConfig
+from rl.presets import Setup
+from rl.runner import CHECKPOINT, load_agent, train
+from rl.toy_env import ToyEnv
+
+torch.set_num_threads(1)
+SETUP = Setup(PPOConfig(hidden=(8,), horizon=4, minibatch_size=16, epochs=1), 4, 32, 16)
+
+
+def _run(tmp_path, stack: int = 1, **kw) -> dict:
+    return train("ppo", ToyEnv(4), kw.pop("setup", SETUP), seed=0, out_dir=tmp_path, stack=stack,
+                 progress=False, tensorboard=False, **kw)  # fmt: skip
+
+
+def test_pack_round_trip(tmp_path) -> None:
+    tree = {
+        "a": torch.arange(6.0).reshape(2, 3),
+        "opt": {"state": {0: {"step": torch.tensor(3.0)}, 1: {}}, "groups": [{"lr": 1e-3}]},
+        "rng": {"state": 2**127 + 5, "name": "PCG64"},
+        "arr": np.array([1, 2, 3], dtype=np.int64),
+        "flags": np.array([True, False]),
+        "pair": (1.5, None),
+    }
+    tensors: dict[str, torch.Tensor] = {}
+    doc = ckpt.pack(tree, "t", tensors)
+    ckpt.save(tmp_path / "c.safetensors", tensors, {"tree": doc})
+    t2, doc2 = ckpt.load(tmp_path / "c.safetensors")
+    back = ckpt.unpack(doc2["tree"], t2)
+    assert torch.equal(back["a"], tree["a"])
+    assert back["opt"]["state"][0]["step"].item() == 3.0 and back["opt"]["state"][1] == {}
+    assert back["rng"]["state"] == 2**127 + 5 and back["pair"] == [1.5, None]
+    assert isinstance(back["arr"], np.ndarray) and back["arr"].tolist() == [1, 2, 3]
+    assert back["flags"].tolist() == [True, False]
+    assert not list(tmp_path.glob(".*tmp*"))  # no temporary file left behind
+
+
+def test_agent_round_trip(tmp_path) -> None:
+    _run(tmp_path)
+    agent, meta = load_agent(tmp_path, "cpu")
+    assert meta["algo"] == "ppo" and meta["obs_dim"] == 4 and meta["stack"] == 1
+    agent2, _ = load_agent(tmp_path / CHECKPOINT, "cpu")
+    for (k, a), b in zip(agent.net.state_dict().items(), agent2.net.state_dict().values(),
+                         strict=True):  # fmt: skip
+        assert torch.equal(a, b), k
+    obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
+    np.testing.assert_array_equal(agent.policy(obs), agent2.policy(obs))
+
+
+def test_corrupt_checkpoints_raise(tmp_path) -> None:
+    _run(tmp_path)
+    path = tmp_path / CHECKPOINT
+    good = path.read_bytes()
+
+    path.write_bytes(good[: len(good) // 2])  # truncated
+    with pytest.raises(ckpt.CheckpointError, match="corrupt"):
+        load_agent(tmp_path)
+    flipped = bytearray(good)
+    flipped[-3] ^= 0xFF  # a byte of tensor data
+    path.write_bytes(bytes(flipped))
+    with pytest.raises(ckpt.CheckpointError, match="SHA-256"):
+        load_agent(tmp_path)
+    path.write_bytes(b"not a checkpoint at all")
+    with pytest.raises(ckpt.CheckpointError, match="corrupt or not a checkpoint"):
+        load_agent(tmp_path)
+    from safetensors.torch import save_file
+
+    save_file({"x": torch.zeros(2)}, str(path))
+    with pytest.raises(ckpt.CheckpointError, match="not a rl-checkpoint"):
+        load_agent(tmp_path)
+    with pytest.raises(ckpt.CheckpointError, match="no checkpoint at"):
+        load_agent(tmp_path / "missing")
+
+
+def test_resume_of_another_configuration_raises(tmp_path) -> None:
+    _run(tmp_path)
+    with pytest.raises(ckpt.CheckpointError, match=r"obs_dim: checkpoint 4, now 12.*stack"):
+        _run(tmp_path, stack=3, resume=True, steps=64)
+    other = Setup(PPOConfig(hidden=(16,), horizon=4, minibatch_size=16, epochs=1), 4, 32, 16)
+    with pytest.raises(ckpt.CheckpointError, match=r"config.hidden: checkpoint \[8\], now \[16\]"):
+        _run(tmp_path, setup=other, resume=True, steps=64)
+    with pytest.raises(ckpt.CheckpointError, match="algo: checkpoint 'ppo', now 'sac'"):
+        train("sac", ToyEnv(4), "pendulum", seed=0, out_dir=tmp_path, resume=True,
+              progress=False, tensorboard=False)  # fmt: skip
+    with pytest.raises(ckpt.CheckpointError, match="already holds a run"):
+        _run(tmp_path)  # a fresh run never overwrites one
+    with pytest.raises(ckpt.CheckpointError, match="no checkpoint at"):
+        _run(tmp_path / "empty", resume=True)
+
+
+def test_check_compatible_lists_every_difference() -> None:
+    with pytest.raises(ckpt.CheckpointError) as e:
+        ckpt.check_compatible({"a": 1, "c": {"x": 1}}, {"a": 2, "c": {"x": 1, "y": 2}}, "p")
+    assert "a: checkpoint 1, now 2" in str(e.value) and "c.y: checkpoint '<missing>'" in str(
+        e.value
+    )
+    ckpt.check_compatible({"a": [1]}, {"a": [1]}, "p")

@@ -1,0 +1,202 @@
+"""The runner: exact resume, NaN handling, logs; presets; the evaluation protocol; commands."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from rl.commands import add_eval_parser, add_train_parser
+from rl.evaluate import evaluate
+from rl.ppo import PPOConfig
+from rl.presets import PRESETS, Setup, get_setup
+from rl.runner import load_agent, train
+from rl.sac import SACConfig
+from rl.stack import StackObs
+from rl.toy_env import StatefulToyEnv, ToyEnv
+
+torch.set_num_threads(1)
+
+# 4 envs; PPO: 8 steps per iteration (32 env steps), checkpoint every 2 iterations
+PPO_SETUP = Setup(PPOConfig(hidden=(16,), horizon=8, minibatch_size=16, epochs=2), 4, 256, 64)
+SAC_SETUP = Setup(
+    SACConfig(hidden=(16,), batch_size=16, buffer_size=100, warmup_steps=24,
+              steps_per_iteration=8, learn_entropy=True, gradient_steps=1.0),
+    4, 256, 64,
+)  # fmt: skip
+
+
+class Interrupt:
+    """Wraps an env; raises KeyboardInterrupt (like Ctrl-C or a kill) at step `at`."""
+
+    def __init__(self, env, at: int) -> None:
+        self.env, self.at, self.n = env, at, 0
+        self.num_envs, self.obs_dim, self.act_dim = env.num_envs, env.obs_dim, env.act_dim
+        if hasattr(env, "get_state"):
+            self.get_state, self.set_state = env.get_state, env.set_state
+
+    def reset(self, seed=None):
+        return self.env.reset(seed)
+
+    def step(self, actions):
+        self.n += 1
+        if self.n == self.at:
+            raise KeyboardInterrupt
+        return self.env.step(actions)
+
+
+class NaNAfter(Interrupt):
+    """Rewards become NaN from step `at` on."""
+
+    def step(self, actions):
+        self.n += 1
+        out = self.env.step(actions)
+        return (out[0], out[1] * np.nan if self.n >= self.at else out[1], *out[2:])
+
+
+def _weights(run_dir) -> dict[str, torch.Tensor]:
+    agent, _ = load_agent(run_dir, "cpu")
+    return {
+        f"{name}.{k}": v
+        for name, m in agent.modules().items()
+        if isinstance(m, torch.nn.Module)
+        for k, v in m.state_dict().items()
+    }
+
+
+def _train(algo, env, setup, out, **kw):
+    return train(algo, env, setup, seed=3, out_dir=out, progress=False, tensorboard=False, **kw)
+
+
+@pytest.mark.parametrize(
+    ("algo", "env_cls", "stack"),
+    [("ppo", StatefulToyEnv, 1), ("ppo", ToyEnv, 2), ("sac", StatefulToyEnv, 2),
+     ("sac", ToyEnv, 1)],
+)  # fmt: skip
+def test_interrupted_and_resumed_run_matches_uninterrupted(algo, env_cls, stack, tmp_path):
+    setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
+    full = _train(algo, env_cls(4), setup, tmp_path / "full", stack=stack, steps=256)
+    assert full["status"] == "done" and full["iterations"] == 8
+    # killed in iteration 4 (steps 25-32): the checkpoint of iteration 2 is what survives
+    part = _train(algo, Interrupt(env_cls(4), 28), setup, tmp_path / "cut", stack=stack,
+                  steps=256)  # fmt: skip
+    assert part["status"] == "interrupted" and part["iterations"] == 3
+    resumed = _train(algo, env_cls(4), setup, tmp_path / "cut", stack=stack, steps=256,
+                     resume=True)  # fmt: skip
+    assert resumed["status"] == "done" and resumed["env_steps"] == 256
+    a, b = _weights(tmp_path / "full"), _weights(tmp_path / "cut")
+    assert a.keys() == b.keys()
+    for k in a:
+        assert torch.equal(a[k], b[k]), k
+    rows = list(csv.DictReader(open(tmp_path / "cut" / "metrics.csv")))
+    assert [int(r["iteration"]) for r in rows] == list(range(1, 9))  # no duplicated rows
+    full_rows = list(csv.DictReader(open(tmp_path / "full" / "metrics.csv")))
+    assert rows[-1]["return_mean"] == full_rows[-1]["return_mean"]
+
+
+def test_stateful_env_resumes_exactly_from_any_iteration(tmp_path) -> None:
+    full = _train("ppo", StatefulToyEnv(4), PPO_SETUP, tmp_path / "full", steps=160)
+    _train("ppo", StatefulToyEnv(4), PPO_SETUP, tmp_path / "cut", steps=96)  # stops at 3
+    _train("ppo", StatefulToyEnv(4), PPO_SETUP, tmp_path / "cut", steps=160, resume=True)
+    assert full["iterations"] == 5
+    a, b = _weights(tmp_path / "full"), _weights(tmp_path / "cut")
+    assert all(torch.equal(a[k], b[k]) for k in a)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_nan_loss_stops_and_keeps_last_good_checkpoint(algo, tmp_path, capsys) -> None:
+    setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
+    before = _train(algo, ToyEnv(4), setup, tmp_path / "ref", steps=64)  # 2 iterations
+    r = _train(algo, NaNAfter(ToyEnv(4), 20), setup, tmp_path / "run", steps=256)
+    assert r["status"] == "nan" and r["iterations"] == 2
+    err = " ".join(capsys.readouterr().err.split())  # rich may wrap lines
+    assert "training stopped at iteration 3" in err and "iteration 2 is kept" in err
+    w, ref = _weights(tmp_path / "run"), _weights(tmp_path / "ref")
+    assert before["iterations"] == 2
+    for k in w:  # the kept checkpoint is the good one of iteration 2
+        assert torch.isfinite(w[k]).all() and torch.equal(w[k], ref[k]), k
+
+
+def test_minutes_budget_and_csv(tmp_path) -> None:
+    r = _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path, minutes=1e-9)
+    assert r["status"] == "done" and r["iterations"] == 0 and r["checkpoint"] is not None
+    r = _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path, steps=64, resume=True)
+    assert r["iterations"] == 2
+    rows = list(csv.DictReader(open(tmp_path / "metrics.csv")))
+    assert len(rows) == 2 and float(rows[-1]["env_steps"]) == 64
+    assert math.isfinite(float(rows[-1]["policy_loss"]))
+    cfg = json.loads((tmp_path / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["device"] == "cpu"
+
+
+def test_presets() -> None:
+    ppo, sac = get_setup("paper", "ppo"), get_setup("paper", "sac")
+    # paper Table II
+    assert ppo.config.hidden == sac.config.hidden == (512, 512)
+    assert (ppo.config.learning_rate, sac.config.learning_rate) == (3e-4, 8e-5)
+    assert ppo.config.gamma == sac.config.gamma == 0.997
+    assert (ppo.config.minibatch_size, sac.config.batch_size) == (8192, 4096)
+    assert (ppo.config.horizon, ppo.config.epochs, sac.config.gradient_steps) == (128, 8, 8)
+    assert ppo.config.entropy_coef == sac.config.entropy_coef == 3e-4
+    assert not sac.config.learn_entropy
+    assert (sac.config.buffer_size, sac.config.warmup_steps) == (20_000_000, 500_000)
+    assert (ppo.config.gae_lambda, ppo.config.clip, sac.config.tau) == (0.95, 0.2, 0.005)
+    assert ppo.num_envs == sac.num_envs == 1024 and ppo.total_steps == 100_000_000
+    for name, algos in PRESETS.items():
+        for algo, setup in algos.items():
+            if algo != "random":
+                setup.config.validate()
+            assert setup.num_envs >= 1, (name, algo)
+    with pytest.raises(ValueError, match=r"unknown preset 'gpu'; valid presets: \['cpu', "):
+        get_setup("gpu", "ppo")
+    with pytest.raises(ValueError, match="unknown algorithm 'dqn'"):
+        get_setup("cpu", "dqn")
+
+
+def test_evaluate_counts_exact_episodes_per_env() -> None:
+    env = ToyEnv(3, max_steps=40)
+    res = evaluate(lambda o: np.clip(o[:, 2:] * 10, -1, 1), env, 4, seed=0)  # go to the goal
+    assert res["episodes"] == 12 and len(res["per_env_success_rate"]) == 3
+    assert res["success_rate"] > 0.5 and len(res["time_to_success_s"]) == res["successes"]
+    assert res["median_time_to_success_s"] > 0
+    idle = evaluate(lambda o: np.zeros((len(o), 2)), StackObs(ToyEnv(2, max_steps=5), 3), 2)
+    assert idle["truncation_rate"] + idle["success_rate"] == pytest.approx(1.0)
+    assert idle["mean_length"] <= 5
+    with pytest.raises(RuntimeError, match="max_steps"):
+        evaluate(lambda o: np.zeros((len(o), 2)), ToyEnv(2, max_steps=50), 1, max_steps=3)
+
+
+def test_commands(tmp_path, capsys) -> None:
+    made = []
+
+    def make_env(dataset: str, num_envs: int, seed: int):
+        made.append((dataset, num_envs, seed))
+        return ToyEnv(num_envs)
+
+    parser = argparse.ArgumentParser(prog="assetgen")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_train_parser(sub, make_env)
+    add_eval_parser(sub, make_env)
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "ppo", "--stack", "2", "--dataset", "toy", "--preset", "cpu",
+            "--steps", "100", "--envs", "2", "--seed", "5", "--out", str(out),
+            "--no-progress", "--json"]  # fmt: skip
+    args = parser.parse_args(argv)
+    assert args.func(args) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res["status"] == "done" and res["env_steps"] == 128 and made[-1] == ("toy", 2, 5)
+    args = parser.parse_args(["eval-agent", "--run", str(out), "--dataset", "toy",
+                              "--episodes", "1", "--json"])  # fmt: skip
+    assert args.func(args) == 0
+    ev = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert ev["algo"] == "ppo" and ev["stack"] == 2 and ev["episodes"] == 2
+    args = parser.parse_args(argv)  # the folder holds a run: refused, with a clear message
+    assert args.func(args) == 2
+    assert "already holds a run" in " ".join(capsys.readouterr().err.split())
+    with pytest.raises(SystemExit):
+        parser.parse_args([*argv, "--minutes", "1"])  # --steps and --minutes exclude each other
