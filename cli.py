@@ -295,6 +295,12 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
     e.set_defaults(func=cmd_eval)
 
+    from assetgen.preview.command import add_arguments, view_main
+
+    v = sub.add_parser("view", help="browser preview of modules and episodes (viser)")
+    add_arguments(v)
+    v.set_defaults(func=view_main)
+
     try:  # training needs torch (the `rl` extra); the rest of the CLI does not
         from rl.commands import add_train_parser
         from sim import make_train_env
