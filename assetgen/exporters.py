@@ -38,7 +38,30 @@ def _usd(ctx: ExportContext) -> None:
     ctx.write(USD_FILE, text.encode())
 
 
+def _mjcf(ctx: ExportContext) -> None:
+    from assetgen.frames import Frame
+    from assetgen.mjcf_export import write_mjcf
+
+    g, peg = ctx.geometry, ctx.record["peg"]
+    # write_mjcf reads the STL files back, checks each piece is closed and convex, and
+    # compiles the model once in MuJoCo before renaming the file into place.
+    write_mjcf(
+        ctx.folder / MJCF_FILE,
+        peg_file="peg.stl",
+        piece_files=ctx.record["collision"]["pieces"],
+        entrance=g.entrance,
+        bottom=g.bottom,
+        peg_pose=Frame.from_json(ctx.record["frames"]["design_pose"]),
+        peg_mass=peg["mass_kg"],
+        peg_com=np.array(peg["com_m"]),
+        peg_inertia=np.array(peg["inertia_kg_m2"]),
+        clearance=g.params.clearance,
+    )
+    ctx.add_file(MJCF_FILE)
+
+
 EXPORTERS["collision"] = _collision
+EXPORTERS["mjcf"] = _mjcf
 EXPORTERS["usd"] = _usd
 
 

@@ -48,3 +48,19 @@ def test_module_json_lists_every_format_with_hashes(tiny_dataset):
             assert name in meta["files"] and len(meta["files"][name]) == 64
         assert all(p in meta["files"] for p in meta["collision"]["pieces"])
         assert json.loads(paths["module_json"].read_text())["files"] == meta["files"]
+
+
+def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
+    import mujoco
+
+    from assetgen.mjcf_physics import drop_test, side_push_test
+
+    for mid, paths, meta in _modules(tiny_dataset):
+        model = mujoco.MjModel.from_xml_path(str(paths["mjcf"]))
+        assert model.ngeom == len(meta["collision"]["pieces"]) + 1, mid
+        drop = drop_test(paths["mjcf"], steps=1000)
+        assert drop["reached_floor"], mid
+        assert drop["rest_distance"] < 0.2e-3, (mid, drop)
+        assert drop["max_penetration"] < 0.1e-3, (mid, drop)
+        push = side_push_test(paths["mjcf"])
+        assert not push["passed_through"], (mid, push)
