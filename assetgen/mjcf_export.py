@@ -285,7 +285,14 @@ def mjcf_text(
     bot_pos, bot_quat = _check_frame(bottom, "bottom")
     peg_pos, peg_quat = _check_frame(peg_pose, "peg_pose")
     com, inertia = _check_mass(peg_mass, peg_com, peg_inertia)
-    full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    full = [
+        inertia[0, 0],
+        inertia[1, 1],
+        inertia[2, 2],
+        inertia[0, 1],
+        inertia[0, 2],
+        inertia[1, 2],
+    ]
     scale = _vec([MM, MM, MM])
     site_size = _num(max(clearance, 0.5e-3))
     lines = [
@@ -352,7 +359,7 @@ def write_mjcf(
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
     clearance: float,
-    contact: ContactConfig = ContactConfig(),  # noqa: B008 (frozen, so a shared default is safe)
+    contact: ContactConfig = ContactConfig(),
 ) -> None:
     """Write the module's MJCF to `path` (atomically) after checking every input.
 
@@ -415,9 +422,10 @@ def _check_compiled(model: mujoco.MjModel, peg_pose: Frame) -> None:
     """The compiled peg body sits exactly at peg_pose (MuJoCo may move geoms, not bodies)."""
     body = model.body(PEG_BODY)
     pos, quat = _check_frame(peg_pose, "peg_pose")
-    if np.abs(body.pos - pos).max() > 1e-12 or min(
-        np.abs(body.quat - quat).max(), np.abs(body.quat + quat).max()
-    ) > 1e-9:
+    if (
+        np.abs(body.pos - pos).max() > 1e-12
+        or min(np.abs(body.quat - quat).max(), np.abs(body.quat + quat).max()) > 1e-9
+    ):
         raise ValueError(
             f"compiled peg body frame {body.pos}, {body.quat} is not peg_pose {pos}, {quat}"
         )

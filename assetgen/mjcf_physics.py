@@ -328,8 +328,7 @@ def side_push_test(
     x, y, axis = s.bottom_rot.T
     start_axial = s.clearance + (1.0 - insertion) * (s.depth - s.clearance)
     out: dict[str, list] = {
-        k: []
-        for k in ("lateral", "lateral_at_rest", "axial_at_rest", "overshoot", "free_travel")
+        k: [] for k in ("lateral", "lateral_at_rest", "axial_at_rest", "overshoot", "free_travel")
     }
     rest_pen, all_pen = [], []
     settled, total = True, 0

@@ -109,7 +109,9 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
     a = PEG_HALF + CLEARANCE
     plate = _box_halfspaces([-PLATE_HALF, -PLATE_HALF, -WALL], [PLATE_HALF, PLATE_HALF, 0.0])
     # the sleeve reaches well above the plate's top and is cut there (z <= 0)
-    sleeve = _box_halfspaces([-a - WALL, -a - WALL, -WALL], [a + WALL, a + WALL, DEPTH + 0.03], hole)
+    sleeve = _box_halfspaces(
+        [-a - WALL, -a - WALL, -WALL], [a + WALL, a + WALL, DEPTH + 0.03], hole
+    )
     sleeve.append((np.array([0.0, 0.0, 1.0]), 0.0))
     # the hole's face planes in the hole frame (outward normal, offset): the module is the
     # union of "solid beyond one plane" over the planes, each piece convex
@@ -128,7 +130,9 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
     quat = tuple(float(q) for q in matrix_to_quat(rot))
     bottom = Frame(tuple(float(x) for x in hole[:3, 3]), quat)
     design = Frame(tuple(float(x) for x in hole[:3, 3] + CLEARANCE * rot[:, 2]), quat)
-    return SyntheticModule(folder, files, Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design)
+    return SyntheticModule(
+        folder, files, Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design
+    )
 
 
 def export(module: SyntheticModule, contact: ContactConfig = ContactConfig(), **kw) -> Path:  # noqa: B008
