@@ -191,7 +191,9 @@ def write_module(
         write_json(tmp / "module.json", _round(record))
         os.replace(tmp, final)
         return record
-    except (ParamError, CheckError) as e:
+    except (ParamError, CheckError, ValueError) as e:
+        # ValueError: an exporter refused the generated geometry (e.g. a collision piece
+        # that is not a closed convex solid); the module is reported, never written.
         shutil.rmtree(tmp, ignore_errors=True)
         raise ModuleFailure(seed, str(e)) from e
     except BaseException:
