@@ -19,8 +19,8 @@ names them by relative path, so the folder can be moved as a whole. Everything i
 - Gravity is 0: in the task the peg is held by a manipulator standing on the module's body.
 
 Contact softness is the point of `ContactConfig`: with MuJoCo's defaults a 0.2 kg peg sinks
-0.4 - 4 mm into a wall, as much as the 1 mm clearance. The defaults below were measured (see
-the field comments and tests/test_mjcf_export.py).
+0.3 - 0.4 mm into the floor under 5 N, a third of the 1 mm clearance. The defaults below were
+measured with `assetgen.mjcf_physics` (see ContactConfig and tests/test_mjcf_export.py).
 """
 
 from __future__ import annotations
@@ -52,58 +52,72 @@ SITES = ("entrance", "bottom", "peg_bottom")
 
 @dataclass(frozen=True)
 class ContactConfig:
-    """MuJoCo physics and contact settings written into the MJCF.
+    """MuJoCo physics and contact settings written into the MJCF (SI units).
 
-    The defaults keep the peg's penetration into a wall far below the 1 mm clearance (all
-    measured on a 0.2 kg, 20 x 20 x 40 mm peg in a 22 x 22 mm hole, upright and tilted):
-    resting on the floor under gravity + a 5 N push the penetration is ~3 um, pressed
-    against a wall with 5 N ~0.6 um, where MuJoCo's defaults (solref 0.02, solimp 0.9/0.95)
-    give 0.1 - 0.5 mm. See README of the measurements at the end of this docstring.
+    Goal: a 0.2 kg peg pressed into a wall or the floor with ~5 N sinks far less than the
+    1 mm clearance, and stays put (no chatter), at the paper's 200 Hz. With MuJoCo's
+    defaults (solref 0.02, solimp 0.9/0.95) it sinks 0.3 - 0.4 mm. Steady penetration of a
+    contact row with constant impedance d, time constant T and damping ratio z under an
+    unconstrained acceleration a into the surface is  r = a (1 - d) T^2 z^2  (MuJoCo docs),
+    shared among the rows that hold the peg. T >= 2 x timestep keeps the spring stable under
+    the standard integrators (refsafe would clamp a smaller T anyway), so stiffness has to
+    come from d; but a too stiff contact (d >= 0.995, or impratio 10, or a pyramidal cone)
+    chatters where the peg is wedged into a V between two walls: each wall's push moves the
+    peg off the other, the contact is lost for a step, and the next step under the full
+    force drives it ~0.6 mm in. The defaults are the stiffest measured to settle everywhere.
 
-    Steady penetration with impedance d and time constant T under an unconstrained
-    acceleration a into the surface (MuJoCo modelling docs):  r = a (1 - d) T^2 dampratio^2.
-    Stiffness therefore comes from d near 1, while T stays >= 2 x timestep so the contact
-    spring remains stable under the standard integrators (MuJoCo's `refsafe` would clamp a
-    smaller T anyway).
+    Measured (assetgen.mjcf_physics, 5 N, speed-guarded approach, orientation held) on the
+    64 modules of seeds 0-23 and 100-139 at friction 0.3, 0.5 and 1.0: every push settled,
+    none passed a wall; at rest the floor penetration (weight + 5 N) <= 27 um and the wall
+    penetration <= 33 um (<= 0.1 mm in the worst of 16 directions: a squashed triangle
+    wedged into its 22 deg corner, which multiplies the normal force ~5x); on the 20 x 20 mm
+    test peg 20 um (floor) and 7 um (wall). With 20 N (the sim's force limit): <= 83 um.
+    MuJoCo's defaults on the same modules: 0.41 mm (floor), 0.26 mm (wall). At friction 0.1
+    some tapered pegs pushed sideways with no axial force climb their sloped walls out of the
+    hole (an allowed motion, reported as not settled). Candidates that chattered in some of
+    those pushes: d = 0.99 with z = 1 (8 of 192), d = 0.995 with z = 1.5 (7), impratio 10
+    (7), the discrete integrator (T = h or 2h).
     """
 
     timestep: float = 0.005
     """Physics step, s: 200 Hz, the paper's physics rate."""
     integrator: str = "implicitfast"
-    """MuJoCo's recommended integrator: the cost of Euler, with implicit velocity damping
-    (for the controllers a simulator adds on top of this file)."""
+    """MuJoCo's recommended integrator: Euler's cost, implicit velocity damping for any
+    controller a simulator adds. Measured identical to Euler here (no damping in this file);
+    MuJoCo 4's `discrete` chattered in V corners at friction 0.3 with T = h and T = 2h."""
     solver: str = "Newton"
-    """Constraint solver. Newton converges in a few iterations on these small problems and
-    copes with the near-hard (d ~ 1) contacts; CG/PGS need many more iterations."""
+    """Constraint solver: converges in a few iterations on these small problems."""
     iterations: int = 50
     """Solver iterations per step at most (Newton stops far earlier when converged)."""
-    solref: tuple[float, float] = (0.01, 1.0)
-    """(time constant s, damping ratio). T = 2 x timestep, the stiffest spring the standard
-    integrators integrate stably (and what refsafe clamps to); critically damped, so a peg
-    hitting the floor does not bounce."""
+    solref: tuple[float, float] = (0.01, 1.5)
+    """(time constant s, damping ratio). T = 2 x timestep: the stiffest spring the standard
+    integrators take (refsafe clamps to it). Damping ratio 1.5 (overdamped, k lower by 1.5^2):
+    the penetration is removed without overshoot, so the peg does not lose contact; about
+    as stiff with damping ratio 1 (d = 0.98 or 0.97) still chattered in 1 - 2 of 192."""
     solimp: tuple[float, float, float, float, float] = (0.99, 0.99, 0.001, 0.5, 2.0)
-    """(dmin, dmax, width m, midpoint, power). Impedance 0.99 at touch rising to 0.999 at
-    0.5 mm penetration: steady penetration scales with (1 - d), so this is 100x stiffer than
-    MuJoCo's default 0.9/0.95 at depth. Above 0.999 buys nothing measurable (below a micron)
-    and the near-singular regulariser makes the solver work harder."""
+    """(dmin, dmax, width m, midpoint, power): constant impedance 0.99, so the penetration is
+    linear in the force (width is then irrelevant): (1 - d) T^2 z^2 is 9 - 18x smaller than
+    with MuJoCo's defaults (0.9 - 0.95, T = 0.02). 0.995 chattered (see above)."""
     friction: tuple[float, float, float] = (0.5, 0.005, 0.0001)
     """(sliding, torsional, rolling) friction: 0.5 sliding is typical of printed plastics
-    (the simulator randomises it per reset anyway)."""
+    (the simulator randomises it per reset anyway; 0.1 - 1.0 was measured)."""
     condim: int = 3
     """Contact dimensionality: normal + 2 tangential (sliding friction). Flat faces rest on
     several contact points (multiccd), which resist twisting without torsional friction."""
     margin: float = 0.0
     """Contact margin, m. Kept 0: a margin makes the constraint act before the surfaces touch,
-    which holds the peg `margin` away from every wall and shrinks the clearance by it (gap =
-    margin would only report contacts early, not change the dynamics)."""
+    holding the peg `margin` off every wall (the clearance shrinks by it), and 20 - 50 um
+    margins did not stop the chatter of stiffer settings."""
     cone: str = "elliptic"
-    """Friction cone: elliptic is Coulomb's cone; pyramidal lets a pressed peg creep more."""
+    """Friction cone: elliptic is Coulomb's cone. Pyramidal let pushed pegs chatter and go
+    through walls with these stiff contacts."""
     impratio: float = 1.0
-    """Frictional-to-normal impedance ratio (elliptic cones only): > 1 makes friction stiffer,
-    so a peg pressed against a wall does not creep along it."""
+    """Frictional-to-normal impedance ratio (elliptic cones). 10 (stiffer friction) chattered
+    at friction 0.3; the price of 1 is slow creep along a wall under a sideways load
+    (~0.1 mm/s at friction 1), harmless to the clearance."""
     noslip_iterations: int = 0
-    """Extra no-slip solver passes. Measured to change neither the penetration nor the
-    displacement here (the near-hard contacts already stop the slip), at extra cost: off."""
+    """Extra no-slip solver passes: 5 - 10 did not settle the stiffer settings and left larger
+    resting penetrations; off."""
     multiccd: bool = True
     """Several contact points per convex pair, so a flat face rests flat instead of rocking on
     one point (enabled by default in MuJoCo 4, written explicitly for 3.x)."""

@@ -3,14 +3,18 @@
 The module is built here (not by the generator): a 20 x 20 x 40 mm peg, a 22 x 22 mm hole
 (1 mm clearance per side) 25 mm deep, in a 150 x 150 x 5 mm plate with a sleeve of 5 mm walls
 and a 5 mm floor. Its collision pieces are the exact convex decomposition "plate (or sleeve)
-beyond one face plane of the hole", cut with trimesh, written as millimetre STL.
+beyond one face plane of the hole" (each an intersection of half-spaces, hulled by trimesh),
+written as millimetre STL. The same module is also built with its hole axis tilted (15 deg
+about x, -15 deg about y, 30 deg yaw), so the drop test pushes along a non-vertical axis.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+import re
+import shutil
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -20,6 +24,7 @@ import trimesh
 
 from assetgen.frames import Frame, matrix_to_quat
 from assetgen.mjcf_export import ContactConfig, write_mjcf
+from assetgen.mjcf_physics import drop_test, side_push_test
 
 PEG_HALF = 0.010  # m, half-width of the square peg
 PEG_HEIGHT = 0.040
@@ -168,5 +173,228 @@ def test_loads_alone(module_xml) -> None:
     module, path = module_xml
     m = mujoco.MjModel.from_xml_path(str(path))
     assert m.nbody == 2 and m.njnt == 1 and m.ngeom == len(module.piece_files) + 1
-    assert m.opt.timestep == 0.005
+    assert m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    assert m.opt.timestep == ContactConfig().timestep == 0.005
     assert np.all(m.opt.gravity == 0)
+    assert m.numeric("clearance").data[0] == CLEARANCE
+    for name in ("entrance", "bottom", "peg_bottom"):
+        m.site(name)  # raises KeyError if absent
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+
+
+def test_peg_body_frame_is_the_peg_frame(module_xml) -> None:
+    """MuJoCo recentres mesh geoms; the body frame (free joint qpos) must stay the peg frame."""
+    module, path = module_xml
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    peg = m.body("peg").id
+    pose = module.design.matrix()
+    np.testing.assert_allclose(d.xpos[peg], pose[:3, 3], atol=1e-12)
+    np.testing.assert_allclose(d.xmat[peg].reshape(3, 3), pose[:3, :3], atol=1e-9)
+    np.testing.assert_allclose(d.qpos[:3], pose[:3, 3], atol=1e-12)
+    site = m.site("peg_bottom")
+    np.testing.assert_array_equal(m.site_pos[site.id], 0.0)
+    np.testing.assert_allclose(d.site_xpos[site.id], pose[:3, 3], atol=1e-12)
+    # the peg's collision vertices, expressed in the body frame, are the STL's: bottom face
+    # at z = 0, centred on the axis
+    g = m.geom("peg").id
+    mesh = m.geom_dataid[g]
+    start, count = m.mesh_vertadr[mesh], m.mesh_vertnum[mesh]
+    world = d.geom_xpos[g] + m.mesh_vert[start : start + count] @ d.geom_xmat[g].reshape(3, 3).T
+    local = (world - pose[:3, 3]) @ pose[:3, :3]
+    np.testing.assert_allclose(local.min(axis=0), [-PEG_HALF, -PEG_HALF, 0.0], atol=1e-7)
+    np.testing.assert_allclose(local.max(axis=0), [PEG_HALF, PEG_HALF, PEG_HEIGHT], atol=1e-7)
+    # explicit inertial: mass, COM in the peg frame, inertia about it
+    com, inertia = peg_mass_properties()
+    assert m.body_mass[peg] == PEG_MASS
+    np.testing.assert_allclose(m.body_ipos[peg], com, atol=1e-12)
+    np.testing.assert_allclose(np.sort(m.body_inertia[peg]), np.sort(np.diag(inertia)), rtol=1e-9)
+
+
+def test_frames_are_sites(module_xml) -> None:
+    module, path = module_xml
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for name, frame in (("entrance", module.entrance), ("bottom", module.bottom)):
+        site = m.site(name).id
+        np.testing.assert_allclose(d.site_xpos[site], frame.pos, atol=1e-12)
+        np.testing.assert_allclose(
+            d.site_xmat[site].reshape(3, 3), frame.matrix()[:3, :3], atol=1e-9
+        )
+
+
+def test_pieces_collide_with_the_peg_only(module_xml) -> None:
+    _, path = module_xml
+    m = mujoco.MjModel.from_xml_path(str(path))
+    peg = m.geom("peg").id
+    pieces = [g for g in range(m.ngeom) if g != peg]
+
+    def collide(a: int, b: int) -> bool:
+        return bool(
+            (m.geom_contype[a] & m.geom_conaffinity[b])
+            or (m.geom_contype[b] & m.geom_conaffinity[a])
+        )
+
+    assert all(collide(peg, g) for g in pieces)
+    assert not any(collide(a, b) for a, b in itertools.combinations(pieces, 2))
+
+
+def test_drop_reaches_the_floor(module_xml) -> None:
+    """Pushed down the hole axis (weight + 5 N, along a tilted axis too), the peg comes to
+    rest with its frame on the bottom frame, penetrating the floor far less than 0.1 mm."""
+    _, path = module_xml
+    r = drop_test(path)
+    print({k: v for k, v in r.items()})
+    assert r["reached_floor"] and r["settled"]
+    assert r["rest_distance"] < 0.2e-3
+    assert r["max_penetration"] < 0.1e-3
+    assert r["lateral_offset"] < 0.1e-3 and r["tilt"] < 1e-3
+
+
+def test_side_push_stops_at_the_walls(module_xml) -> None:
+    """A 5 N push across the axis moves the peg by the clearance towards a face (the free
+    travel, sqrt(2) x the clearance into a corner) and no further than 0.1 mm beyond it."""
+    _, path = module_xml
+    r = side_push_test(path, force=5.0, directions=8)
+    print({k: v for k, v in r.items() if not isinstance(v, list)})
+    assert r["settled"] and not r["passed_through"]
+    free = np.array(r["free_travel"])
+    expected = np.where(np.arange(8) % 2 == 0, CLEARANCE, math.sqrt(2) * CLEARANCE)
+    np.testing.assert_allclose(free, expected, atol=5e-6)  # float32 STL, distance tolerance
+    assert np.all(np.array(r["lateral"]) <= free + 0.1e-3)  # every step, not only at rest
+    assert r["max_overshoot"] < 0.1e-3
+    assert r["max_penetration"] < 0.1e-3 and r["max_penetration_at_rest"] < 0.1e-3
+    assert r["seconds"] < 2.0
+
+
+def test_side_push_at_mid_depth_with_the_peg_pressed_down(module_xml) -> None:
+    _, path = module_xml
+    r = side_push_test(path, insertion=0.5, axial_force=2.0, directions=4)
+    assert r["settled"] and not r["passed_through"]
+    assert r["max_overshoot"] < 0.1e-3 and r["max_penetration_at_rest"] < 0.1e-3
+
+
+def test_unguarded_push_and_fall_are_still_stopped(module_xml) -> None:
+    """Without the speed guard a 5 N push hits the wall at ~0.2 m/s and the fall lands at
+    ~1 m/s: at 200 Hz the peg is up to a step's travel inside the surface before the contact
+    acts (the transient, printed), yet the walls and the floor stop it and it comes back."""
+    _, path = module_xml
+    push = side_push_test(path, speed=None, directions=4)
+    fall = drop_test(path, speed=None)
+    print("transients:", push["max_penetration"], fall["max_penetration_transient"])
+    assert push["settled"] and not push["passed_through"]
+    assert push["max_penetration_at_rest"] < 0.1e-3 and push["max_overshoot"] < 0.1e-3
+    assert fall["reached_floor"] and fall["max_penetration"] < 0.1e-3
+
+
+def test_mujoco_default_contacts_sink_too_far(tmp_path) -> None:
+    """Why ContactConfig is tuned: MuJoCo's default softness lets the peg sink into the floor
+    by a good part of the clearance (0.34 mm measured), the defaults here by micrometres."""
+    module = make_module(tmp_path)
+    soft = ContactConfig(solref=(0.02, 1.0), solimp=(0.9, 0.95, 0.001, 0.5, 2.0))
+    assert drop_test(export(module, soft))["max_penetration"] > 0.2e-3
+    assert drop_test(export(module))["max_penetration"] < 0.05e-3
+
+
+# ---------------------------------------------------------------------------------------------
+# bad input: a ValueError naming the file and the problem, and nothing written
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def good_module(tmp_path_factory) -> SyntheticModule:
+    return make_module(tmp_path_factory.mktemp("good"))
+
+
+def _copy(module: SyntheticModule, folder: Path) -> SyntheticModule:
+    shutil.copytree(module.folder, folder)
+    return replace(module, folder=folder)
+
+
+def _assert_nothing_written(module: SyntheticModule, before: bytes | None = None) -> None:
+    xml = module.folder / "peg_in_hole.xml"
+    if before is None:
+        assert not xml.exists()
+    else:
+        assert xml.read_bytes() == before
+    assert not list(module.folder.glob(".*tmp*")), "a temporary file was left behind"
+
+
+def test_missing_piece(good_module, tmp_path) -> None:
+    module = _copy(good_module, tmp_path / "m")
+    (module.folder / module.piece_files[3]).unlink()
+    with pytest.raises(ValueError, match=r"collision/piece_003\.stl: file missing"):
+        export(module)
+    _assert_nothing_written(module)
+
+
+def test_corrupt_piece_keeps_the_previous_file(good_module, tmp_path) -> None:
+    module = _copy(good_module, tmp_path / "m")
+    before = export(module).read_bytes()
+    piece = module.folder / module.piece_files[0]
+    piece.write_bytes(piece.read_bytes()[:-20])  # truncated
+    with pytest.raises(ValueError, match=r"piece_000\.stl: corrupt STL.*truncated"):
+        export(module)
+    _assert_nothing_written(module, before)
+    piece.write_text("solid ascii\nendsolid\n")  # not a binary STL
+    with pytest.raises(ValueError, match=r"piece_000\.stl: corrupt STL"):
+        export(module)
+    _assert_nothing_written(module, before)
+
+
+def test_open_piece(good_module, tmp_path) -> None:
+    module = _copy(good_module, tmp_path / "m")
+    path = module.folder / module.piece_files[1]
+    mesh = trimesh.load(path, file_type="stl", process=False)
+    holed = trimesh.Trimesh(mesh.vertices, mesh.faces[1:], process=False)  # one triangle less
+    path.write_bytes(holed.export(file_type="stl"))
+    with pytest.raises(ValueError, match=r"piece_001\.stl: not watertight"):
+        export(module)
+    _assert_nothing_written(module)
+
+
+def _dented_box() -> trimesh.Trimesh:
+    """A closed, consistently wound box with one corner pushed inwards: not convex."""
+    box = trimesh.creation.box(extents=[0.01, 0.01, 0.01])
+    v = box.vertices.copy()
+    corner = int(np.argmax(v.sum(axis=1)))  # the (+, +, +) corner
+    v[corner] *= 0.2  # inside the plane of its three neighbours
+    return trimesh.Trimesh(v, box.faces, process=False)
+
+
+@pytest.mark.parametrize("which", ["piece", "peg"])
+def test_non_convex_mesh(good_module, tmp_path, which: str) -> None:
+    module = _copy(good_module, tmp_path / "m")
+    name = module.piece_files[2] if which == "piece" else "peg.stl"
+    _write_stl(_dented_box(), module.folder / name)
+    with pytest.raises(ValueError, match=rf"{re.escape(name)}: not convex"):
+        export(module)
+    _assert_nothing_written(module)
+
+
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"peg_mass": 0.0}, "peg_mass"),
+        ({"peg_inertia": np.diag([1e-6, 1e-6, 5e-6])}, "triangle inequality"),
+        ({"peg_com": np.array([0.0, np.nan, 0.0])}, "peg_com"),
+        ({"bottom": Frame((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))}, "bottom.quat"),
+        ({"clearance": -0.001}, "clearance"),
+        ({"piece_files": []}, "piece_files is empty"),
+        ({"peg_file": "/abs/peg.stl"}, "must be relative"),
+        ({"contact": ContactConfig(solref=(0.005, 1.0))}, r"solref\[0\]"),
+    ],
+)
+def test_bad_values(good_module, tmp_path, kw: dict, message: str) -> None:
+    module = _copy(good_module, tmp_path / "m")
+    with pytest.raises(ValueError, match=message):
+        export(module, **kw)
+    _assert_nothing_written(module)
+
+
+def test_same_input_same_bytes(good_module, tmp_path) -> None:
+    a = export(_copy(good_module, tmp_path / "a")).read_bytes()
+    b = export(_copy(good_module, tmp_path / "b")).read_bytes()
+    assert a == b
