@@ -156,10 +156,15 @@ class BatchSim:
         self.shard_of = env // k
         self._qpos_idx = 1 + 7 * slot[:, None] + np.arange(7)
         self._qvel_idx = 1 + 7 * k + 6 * slot[:, None] + np.arange(6)
-        self._offset = np.zeros((n, 3))
-        self._offset[:, 0] = slot * self.SPACING
         self.nstate = 14
         nshard = mujoco.mj_stateSize(self.models[0], STATE_SPEC)
+        # env state [time, qpos, qvel] <-> flat positions in shard_state.ravel(): one take /
+        # put per step instead of three 2-D fancy indexings (the env layer's per-step cost is
+        # what `assetgen bench sim` compares against raw rollout)
+        cols = np.concatenate([np.zeros((n, 1), int), self._qpos_idx, self._qvel_idx], axis=1)
+        self._flat = self.shard_of[:, None] * nshard + cols
+        self._offset = np.zeros((n, self.nstate))
+        self._offset[:, 1] = slot * self.SPACING
         self.shard_state = np.zeros((s_count, nshard))
         self.shard_state[:, 1 : 1 + 7 * k].reshape(s_count, k, 7)[:, :, 3] = 1.0
         all_slots = np.arange(s_count * k) % k
@@ -167,25 +172,23 @@ class BatchSim:
             all_slots.reshape(s_count, k) * self.SPACING
         )
         self.state = np.zeros((n, self.nstate))
+        self._ss_flat = self.shard_state.reshape(-1)  # a view: shard_state is contiguous
         self.gather()
         self._out = np.empty((s_count, p.substeps, nshard))
         self._ctrl = np.zeros((s_count, p.substeps, 6 * k))
+        # env e = shard * k + slot: its 6 controls are entries 6e .. 6e + 5 of the shards'
+        # first-substep controls laid end to end (phantom slots, at the end, stay zero)
+        self._ctrl0 = np.zeros((s_count, 6 * k))
 
     # ------------------------------------------------------------------ layout
 
     def gather(self) -> None:
         """Per-env state from the shard states (positions back into each module frame)."""
-        ss = self.shard_state
-        self.state[:, 0] = ss[self.shard_of, 0]
-        self.state[:, 1:8] = ss[self.shard_of[:, None], self._qpos_idx]
-        self.state[:, 1:4] -= self._offset
-        self.state[:, 8:14] = ss[self.shard_of[:, None], self._qvel_idx]
+        np.subtract(self._ss_flat.take(self._flat), self._offset, out=self.state)
 
     def _scatter(self) -> None:
-        ss = self.shard_state
-        ss[self.shard_of[:, None], self._qpos_idx] = self.state[:, 1:8]
-        ss[self.shard_of[:, None], self._qpos_idx[:, :3]] += self._offset
-        ss[self.shard_of[:, None], self._qvel_idx] = self.state[:, 8:14]
+        # time is written back too: every env of a shard holds its shard's time
+        self._ss_flat[self._flat] = self.state + self._offset
 
     # ------------------------------------------------------------------ state access
 
@@ -268,8 +271,8 @@ class BatchSim:
     def shard_control(self, velocity: np.ndarray) -> np.ndarray:
         """(num_envs, 6) velocities -> the shards' controls (shards, substeps, 6 x slots),
         held over the substeps; phantom slots keep zero."""
-        ctrl = self._ctrl.reshape(len(self.models), self.task.physics.substeps, -1, 6)
-        ctrl[self.shard_of, :, np.arange(self.num_envs) % self.shard_size] = velocity[:, None]
+        self._ctrl0.reshape(-1)[: 6 * self.num_envs] = velocity.reshape(-1)
+        self._ctrl[:] = self._ctrl0[:, None, :]
         return self._ctrl
 
     def contacts(self, i: int) -> tuple[np.ndarray, np.ndarray]:

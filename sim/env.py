@@ -87,6 +87,8 @@ class PegInHoleVecEnv:
         self.bottom = np.stack([a.bottom for a in assets])
         self.entrance_inv = T.inverse(self.entrance)
         self.bottom_inv = T.inverse(self.bottom)
+        self._frames = T.ObsFrames.of(self.entrance, self.bottom)
+        self._entrance_quat = matrix_to_quat(self.entrance[:, :3, :3])
         nv = max(len(a.peg.vertices) for a in assets)
         # vertices padded to a common count by repeating the first (same min/any results)
         verts = [a.peg.vertices for a in assets]
@@ -109,6 +111,9 @@ class PegInHoleVecEnv:
         self._c_prev = np.zeros(n)
         self._d0 = np.ones(n)
         self._obs = np.zeros((n, T.OBS_DIM), dtype=np.float32)
+        cfg = self.cfg
+        self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
+        self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
 
     # ------------------------------------------------------------------ helpers
 
@@ -122,21 +127,38 @@ class PegInHoleVecEnv:
         """(num_envs, 4, 4) true peg poses in the module frame."""
         return T.pose(self.sim.peg_pos, self.sim.peg_quat)
 
-    def _observe(self, peg: np.ndarray, idx: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """Observations of envs idx from their true poses peg (len(idx), 4, 4)."""
-        if self.cfg.noise:
-            peg = T.perturb(peg, self.rng, self.cfg.obs_pos_noise, self.cfg.obs_rot_noise)
-        return T.observe(peg, self.entrance_inv[idx], self.bottom_inv[idx])
+    def _observe(
+        self, pos: np.ndarray, quat: np.ndarray, idx: np.ndarray | slice = slice(None)
+    ) -> np.ndarray:
+        """Observations of envs idx from their true poses pos (k, 3), quat (k, 4)."""
+        cfg = self.cfg
+        if cfg.noise:
+            pos, quat = T.perturb(pos, quat, self.rng, cfg.obs_pos_noise, cfg.obs_rot_noise)
+        return T.observe(pos, quat, self._frames[idx])
+
+    def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Bookkeeping of episodes starting at poses pos (k, 3), quat (k, 4) in envs idx."""
+        f = self._frames
+        d0 = T.seat_distance(pos, quat, f.bottom_pos[idx], f.bottom_quat_conj[idx], self.cfg)
+        self._d0[idx] = np.maximum(d0, 1e-9)
+        self._c_prev[idx] = 0.0
+        self._steps[idx] = 0
+        self._return[idx] = 0.0
 
     def _reset_envs(self, idx: np.ndarray) -> None:
         """New episodes for envs idx: spawn, contact randomisation, bookkeeping."""
         if len(idx) == 0:
             return
         cfg = self.cfg
-        spawn = T.sample_spawn(
-            self.rng, self.entrance[idx], self.peg_vertices[idx], self.curriculum_scale(), cfg
+        pos, quat = T.sample_spawn(
+            self.rng,
+            self.entrance[idx, :3, 3],
+            self._entrance_quat[idx],
+            self.peg_vertices[idx],
+            self.curriculum_scale(),
+            cfg,
         )
-        self.sim.set_pose(idx, spawn[:, :3, 3], matrix_to_quat(spawn[:, :3, :3]))
+        self.sim.set_pose(idx, pos, quat)
         k = len(idx)
         # static and dynamic friction are drawn as in the original; MuJoCo has one Coulomb
         # coefficient, which governs sliding (the regime of insertion): the dynamic one
@@ -146,23 +168,16 @@ class PegInHoleVecEnv:
         self.sim.set_contact(
             idx, dynamic, restitution_to_dampratio(restitution, cfg.physics.min_dampratio)
         )
-        d0 = T.seat_distance(self.bottom_inv[idx] @ spawn, cfg)
-        self._d0[idx] = np.maximum(d0, 1e-9)
-        self._c_prev[idx] = 0.0
-        self._steps[idx] = 0
-        self._return[idx] = 0.0
+        self._start_episodes(idx, pos, quat)
 
     def set_peg_poses(self, idx: np.ndarray, poses: np.ndarray) -> None:
         """Put the pegs of envs idx at `poses` (k, 4, 4), at rest, and restart their
         episodes from there (for tests, demonstrations and hand-made starts)."""
         idx = np.atleast_1d(np.asarray(idx))
-        self.sim.set_pose(idx, poses[:, :3, 3], matrix_to_quat(poses[:, :3, :3]))
-        d0 = T.seat_distance(self.bottom_inv[idx] @ poses, self.cfg)
-        self._d0[idx] = np.maximum(d0, 1e-9)
-        self._c_prev[idx] = 0.0
-        self._steps[idx] = 0
-        self._return[idx] = 0.0
-        self._obs[idx] = self._observe(poses, idx)
+        quat = matrix_to_quat(poses[:, :3, :3])
+        self.sim.set_pose(idx, poses[:, :3, 3], quat)
+        self._start_episodes(idx, poses[:, :3, 3], quat)
+        self._obs[idx] = self._observe(poses[:, :3, 3], quat, idx)
 
     # ------------------------------------------------------------------ API
 
@@ -171,7 +186,7 @@ class PegInHoleVecEnv:
         if seed is not None:
             self.rng = np.random.default_rng(seed)
         self._reset_envs(np.arange(self.num_envs))
-        self._obs = self._observe(self.peg_poses())
+        self._obs = self._observe(self.sim.peg_pos, self.sim.peg_quat)
         return self._obs.copy()
 
     def _check_actions(self, actions: np.ndarray) -> np.ndarray:
@@ -194,41 +209,41 @@ class PegInHoleVecEnv:
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
         cfg = self.cfg
-        a = np.clip(self._check_actions(actions), -1.0, 1.0)
-        scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
-        velocity = a * scale
+        velocity = np.clip(self._check_actions(actions), -1.0, 1.0) * self._act_scale
         if cfg.noise:
-            std = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
-            velocity = velocity + self.rng.normal(0.0, 1.0, velocity.shape) * std
+            velocity += self.rng.standard_normal(velocity.shape, dtype=np.float32) * self._act_noise
         unstable = self.sim.step(velocity)
         self.global_step += self.num_envs
         self._steps += 1
 
-        peg = self.peg_poses()
+        pos, quat = self.sim.peg_pos, self.sim.peg_quat
         if unstable.any():
             # keep the batch going: a placeholder pose for the arithmetic below (its reward
             # is 0, its observation the last finite one); it is reset like a finished episode
-            peg[unstable] = np.eye(4)
-        in_bottom = self.bottom_inv @ peg
-        c = T.progress(T.seat_distance(in_bottom, cfg), self._d0)
+            pos, quat = pos.copy(), quat.copy()
+            pos[unstable] = 0.0
+            quat[unstable] = (1.0, 0.0, 0.0, 0.0)
+        bottom_pos, bottom_qc = self._frames.bottom_pos, self._frames.bottom_quat_conj
+        c = T.progress(T.seat_distance(pos, quat, bottom_pos, bottom_qc, cfg), self._d0)
         reward = c - self._c_prev
-        success = T.succeeded(in_bottom, cfg) & ~unstable
+        success = T.succeeded(pos, bottom_pos, cfg) & ~unstable
         failure = T.failed(
-            peg, self.peg_vertices, self.bottom, self.hole_radius, cfg.failure_depth, self.peg_reach
-        )
+            pos, quat, self.peg_vertices, self.bottom, self.hole_radius, cfg.failure_depth,
+            self.peg_reach,
+        )  # fmt: skip
         failure &= ~success & ~unstable
         # c_T - c_{T-1} + (1 - c_T) = 1 - c_{T-1} = 1 - (return so far), written so that the
         # float sum of a successful episode's rewards is exactly 1.0
-        reward = np.where(success, 1.0 - self._return, reward)
-        reward = np.where(failure, cfg.failure_reward, reward)
-        reward = np.where(unstable, 0.0, reward)
+        reward[success] = 1.0 - self._return[success]
+        reward[failure] = cfg.failure_reward
+        reward[unstable] = 0.0
         self._return += reward
         self._c_prev = c
 
         terminated = success | failure
         truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
         done = terminated | truncated
-        obs = self._observe(peg)
+        obs = self._observe(pos, quat)
         obs[unstable] = self._obs[unstable]  # the last finite observation
         info = {
             "final_obs": obs.copy(),
@@ -246,7 +261,7 @@ class PegInHoleVecEnv:
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
-            obs[idx] = self._observe(self.peg_poses()[idx], idx)
+            obs[idx] = self._observe(self.sim.peg_pos[idx], self.sim.peg_quat[idx], idx)
         self._obs = obs
         return obs.copy(), reward, terminated, truncated, info
 

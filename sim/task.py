@@ -5,10 +5,21 @@ in the module frame unless stated.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sim.config import TaskConfig
-from sim.rotations import axis_angle_to_matrix, quat_to_matrix, random_axes, rot6d, rotvec_to_matrix
+from sim.rotations import (
+    matrix_to_quat,
+    quat_conj,
+    quat_mul,
+    quat_rot6d,
+    quat_to_matrix,
+    random_axes,
+    rot6d,
+    rotvec_to_quat,
+)
 
 OBS_DIM = 18
 ACT_DIM = 6
@@ -33,7 +44,9 @@ def inverse(t: np.ndarray) -> np.ndarray:
     return out
 
 
-def observe(peg: np.ndarray, entrance_inv: np.ndarray, bottom_inv: np.ndarray) -> np.ndarray:
+def observe_matrices(
+    peg: np.ndarray, entrance_inv: np.ndarray, bottom_inv: np.ndarray
+) -> np.ndarray:
     """(n, 18) float32: the peg's pose in the entrance frame, then in the bottom frame, each
     as translation (3) + the first two rotation columns (6)."""
     in_e = entrance_inv @ peg
@@ -44,23 +57,87 @@ def observe(peg: np.ndarray, entrance_inv: np.ndarray, bottom_inv: np.ndarray) -
     return np.concatenate([in_e[:, :3, 3], r_e, in_b[:, :3, 3], r_b], axis=1).astype(np.float32)
 
 
+@dataclass(frozen=True)
+class ObsFrames:
+    """The entrance and bottom frames of n envs, in the forms the per-step path uses: both
+    observed transforms come out of one batched 6 x 3 product."""
+
+    rows: np.ndarray
+    """(n, 6, 3) R_e^T over R_b^T: module-frame vectors into the entrance and bottom frames."""
+    origin_in: np.ndarray
+    """(n, 6) R_e^T p_e, R_b^T p_b: a point p is at R_f^T p - R_f^T p_f in frame f."""
+    bottom_pos: np.ndarray
+    """(n, 3) bottom frame origins in the module frame."""
+    bottom_quat_conj: np.ndarray
+    """(n, 4) inverse bottom frame orientations (w, x, y, z)."""
+
+    @classmethod
+    def of(cls, entrance: np.ndarray, bottom: np.ndarray) -> ObsFrames:
+        """From (n, 4, 4) entrance and bottom frames in the module frame."""
+        rows = np.concatenate(
+            [np.swapaxes(entrance[:, :3, :3], 1, 2), np.swapaxes(bottom[:, :3, :3], 1, 2)], 1
+        )
+        origins = np.concatenate([entrance[:, :3, 3], bottom[:, :3, 3]], 1).reshape(-1, 2, 3)
+        origin_in = np.einsum("nfij,nfj->nfi", rows.reshape(-1, 2, 3, 3), origins)
+        quat_b = quat_conj(matrix_to_quat(bottom[:, :3, :3]))
+        return cls(rows, origin_in.reshape(-1, 6), bottom[:, :3, 3].copy(), quat_b)
+
+    def __getitem__(self, idx: np.ndarray | slice) -> ObsFrames:
+        return ObsFrames(
+            self.rows[idx], self.origin_in[idx], self.bottom_pos[idx], self.bottom_quat_conj[idx]
+        )
+
+
+def observe(pos: np.ndarray, quat: np.ndarray, frames: ObsFrames) -> np.ndarray:
+    """(n, 18) float32: `observe_matrices` of the poses pos (n, 3), quat (n, 4) (unit).
+
+    The peg's position and first two rotation columns (three module-frame vectors, the
+    columns of v) go into both frames at once: rows @ v, then R_f^T p_f off the position."""
+    n = len(pos)
+    v = np.empty((n, 3, 3))
+    v[:, :, 0] = pos
+    v[:, :, 1:] = quat_rot6d(quat).reshape(n, 2, 3).transpose(0, 2, 1)
+    res = frames.rows @ v  # (n, frame * 3 + component, vector)
+    res[:, :, 0] -= frames.origin_in
+    # no clip to [-1, 1] as in `observe_matrices`: rotation entries past 1 by rounding (~1e-16)
+    # round to 1 in float32
+    out = np.empty((n, 2, 3, 3), dtype=np.float32)  # (n, frame, vector, component)
+    out[:] = res.reshape(n, 2, 3, 3).transpose(0, 1, 3, 2)
+    return out.reshape(n, OBS_DIM)
+
+
 def perturb(
-    peg: np.ndarray, rng: np.random.Generator, pos_std: float, rot_std: float
+    pos: np.ndarray, quat: np.ndarray, rng: np.random.Generator, pos_std: float, rot_std: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """One estimation error per peg of poses pos (n, 3), quat (n, 4): position + N(0, pos_std)
+    per axis, orientation turned by a rotation vector with N(0, rot_std) components (module
+    frame). Both observed transforms come from this one estimate, so they stay consistent.
+    Returns the noisy (pos, quat). (float32 draws: the noise needs no more digits.)"""
+    # one draw for both: position (first 3) and rotation vector (last 3), per peg
+    e = rng.standard_normal((len(pos), 6), dtype=np.float32)
+    noisy_pos = pos + pos_std * e[:, :3]
+    noisy_quat = quat_mul(rotvec_to_quat(rot_std * e[:, 3:].astype(np.float64)), quat)
+    return noisy_pos, noisy_quat
+
+
+def seat_distance(
+    pos: np.ndarray,
+    quat: np.ndarray,
+    bottom_pos: np.ndarray,
+    bottom_quat_conj: np.ndarray,
+    cfg: TaskConfig,
 ) -> np.ndarray:
-    """One estimation error per peg: position + N(0, pos_std) per axis, orientation rotated
-    by a rotation vector with N(0, rot_std) components (module frame). Both observed
-    transforms come from this one estimate, so they stay consistent."""
-    n = len(peg)
-    out = peg.copy()
-    out[:, :3, 3] += rng.normal(0.0, pos_std, (n, 3))
-    out[:, :3, :3] = rotvec_to_matrix(rng.normal(0.0, rot_std, (n, 3))) @ peg[:, :3, :3]
-    return out
+    """(n,) d = w_t ||t|| + w_r ||R - I||_F of the peg-to-bottom transforms (t in metres),
+    for poses pos (n, 3), quat (n, 4) (unit) and bottom frames with origins (n, 3) and
+    inverse orientations (n, 4).
 
-
-def seat_distance(peg_in_bottom: np.ndarray, cfg: TaskConfig) -> np.ndarray:
-    """(n,) d = w_t ||t|| + w_r ||R - I||_F of the peg-to-bottom transform (t in metres)."""
-    t = np.linalg.norm(peg_in_bottom[:, :3, 3], axis=1)
-    r = np.linalg.norm(peg_in_bottom[:, :3, :3] - np.eye(3), axis=(1, 2))
+    ||t|| is the distance of the origins; ||R - I||_F = 2 sqrt(2) |sin(angle / 2)| =
+    sqrt(8) ||vector part of the relative quaternion|| (exact near the seat, where
+    1 - cos would lose digits)."""
+    d = pos - bottom_pos
+    t = np.sqrt(np.einsum("ni,ni->n", d, d))
+    v = quat_mul(bottom_quat_conj, quat)[:, 1:]
+    r = np.sqrt(8.0 * np.einsum("ni,ni->n", v, v))
     return cfg.dist_pos_weight * t + cfg.dist_rot_weight * r
 
 
@@ -69,9 +146,11 @@ def progress(d: np.ndarray, d0: np.ndarray) -> np.ndarray:
     return 1.0 - np.sqrt(d / d0)
 
 
-def succeeded(peg_in_bottom: np.ndarray, cfg: TaskConfig) -> np.ndarray:
-    """(n,) bool: the peg frame's origin within `success_radius` of the bottom frame's."""
-    return np.linalg.norm(peg_in_bottom[:, :3, 3], axis=1) < cfg.success_radius
+def succeeded(pos: np.ndarray, bottom_pos: np.ndarray, cfg: TaskConfig) -> np.ndarray:
+    """(n,) bool: the peg frame's origin pos (n, 3) within `success_radius` of the bottom
+    frame's bottom_pos (n, 3)."""
+    d = pos - bottom_pos
+    return np.einsum("ni,ni->n", d, d) < cfg.success_radius**2
 
 
 def lowest_points(peg: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -80,7 +159,8 @@ def lowest_points(peg: np.ndarray, vertices: np.ndarray) -> np.ndarray:
 
 
 def failed(
-    peg: np.ndarray,
+    pos: np.ndarray,
+    quat: np.ndarray,
     vertices: np.ndarray,
     bottom: np.ndarray,
     hole_radius: np.ndarray,
@@ -94,17 +174,24 @@ def failed(
     origin along its z). Inside that radius a point below the surface is in the hole;
     outside it, the only way down is around the plate's edge (or through the plate). The
     depth tolerance (2.5 mm: half the plate) is above any contact transient (<= 1.25 mm).
-    vertices: (n, V, 3) peg frame; bottom: (n, 4, 4); hole_radius: (n,) m; reach: (n,)
-    largest vertex distance from the peg origin (computed if not given).
+    pos (n, 3), quat (n, 4): peg poses in the module frame; vertices: (n, V, 3) peg frame;
+    bottom: (n, 4, 4); hole_radius: (n,) m; reach: (n,) largest vertex distance from the
+    peg origin (computed if not given).
     """
-    out = np.zeros(len(peg), dtype=bool)
+    out = np.zeros(len(pos), dtype=bool)
     # only pegs whose origin is low enough for some vertex to be below -depth
     if reach is None:
         reach = np.sqrt(np.max(np.sum(vertices**2, axis=-1), axis=1))
-    idx = np.flatnonzero(peg[:, 2, 3] - reach < -depth)
+    idx = np.flatnonzero(pos[:, 2] - reach < -depth)
     if len(idx) == 0:
         return out
-    pts = lowest_points(peg[idx], vertices[idx])
+    # the vertices' heights need only the rotation's last row (from the quaternion); the
+    # full transform only for pegs with a vertex below -depth (few: most low pegs are tall
+    # ones still high above the plate)
+    idx = idx[heights(pos[idx], quat[idx], vertices[idx]).min(axis=1) < -depth]
+    if len(idx) == 0:
+        return out
+    pts = lowest_points(pose(pos[idx], quat[idx]), vertices[idx])
     below = pts[..., 2] < -depth
     rel = pts - bottom[idx, None, :3, 3]
     axis = bottom[idx, None, :3, 2]
@@ -114,30 +201,42 @@ def failed(
     return out
 
 
+def heights(pos: np.ndarray, quat: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """(n, V) module-frame z of the vertices (n, V, 3) (peg frame) of pegs at pos (n, 3),
+    quat (n, 4): only the rotation's last row is needed, straight from the quaternion."""
+    w, x, y, z = quat.T
+    row2 = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], 1)
+    return np.einsum("nvi,ni->nv", vertices, row2) + pos[:, 2:3]
+
+
 def sample_spawn(
     rng: np.random.Generator,
-    entrance: np.ndarray,
+    entrance_pos: np.ndarray,
+    entrance_quat: np.ndarray,
     vertices: np.ndarray,
     scale: float,
     cfg: TaskConfig,
     min_clearance: float = 0.001,
-) -> np.ndarray:
-    """(n, 4, 4) spawn poses: x, y within +-scale * spawn_xy of the entrance, z
-    scale * U(spawn_z) above it, orientation = entrance frame turned about a random axis by
-    U(0, scale * spawn_max_angle). A peg whose lowest point would be less than
-    `min_clearance` above the mounting surface is raised to that height (only tall pegs
-    spawned upside down near the lowest height, or every peg at scale 0, whose bottom
+) -> tuple[np.ndarray, np.ndarray]:
+    """Spawn poses, positions (n, 3) and unit quaternions (n, 4), of pegs whose entrance
+    frames are entrance_pos (n, 3), entrance_quat (n, 4): x, y within +-scale * spawn_xy of
+    the entrance, z scale * U(spawn_z) above it, orientation = entrance frame turned about a
+    random axis by U(0, scale * spawn_max_angle). A peg whose lowest point would be less
+    than `min_clearance` above the mounting surface is raised to that height (only tall
+    pegs spawned upside down near the lowest height, or every peg at scale 0, whose bottom
     would sit exactly at the entrance)."""
-    n = len(entrance)
-    offset = np.empty((n, 3))
-    offset[:, :2] = rng.uniform(-1.0, 1.0, (n, 2)) * cfg.spawn_xy * scale
-    offset[:, 2] = rng.uniform(*cfg.spawn_z, n) * scale
+    n = len(entrance_pos)
+    offset = np.empty((n, 4))
+    offset[:, 0] = 0.0
+    offset[:, 1:3] = rng.uniform(-1.0, 1.0, (n, 2)) * cfg.spawn_xy * scale
+    offset[:, 3] = rng.uniform(*cfg.spawn_z, n) * scale
     angle = rng.uniform(0.0, 1.0, n) * cfg.spawn_max_angle * scale
-    rot = axis_angle_to_matrix(random_axes(rng, n), angle)
-    out = np.zeros((n, 4, 4))
-    out[:, :3, :3] = entrance[:, :3, :3] @ rot
-    out[:, :3, 3] = entrance[:, :3, 3] + np.einsum("nij,nj->ni", entrance[:, :3, :3], offset)
-    out[:, 3, 3] = 1.0
-    low = lowest_points(out, vertices)[..., 2].min(axis=1)
-    out[:, 2, 3] += np.maximum(0.0, min_clearance - low)
-    return out
+    turn = np.empty((n, 4))
+    turn[:, 0] = np.cos(0.5 * angle)
+    turn[:, 1:] = random_axes(rng, n) * np.sin(0.5 * angle)[:, None]
+    quat = quat_mul(entrance_quat, turn)
+    # the offset, given in the entrance frame, into the module frame: q (0, v) q*
+    pos = entrance_pos + quat_mul(quat_mul(entrance_quat, offset), quat_conj(entrance_quat))[:, 1:]
+    low = heights(pos, quat, vertices).min(axis=1)
+    pos[:, 2] += np.maximum(0.0, min_clearance - low)
+    return pos, quat

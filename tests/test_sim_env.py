@@ -50,7 +50,7 @@ def test_noise_perturbs_one_pose_estimate_consistently() -> None:
     r_be = r_b[0] @ r_e[0].T
     assert r_be == pytest.approx(truth[:3, :3], abs=1e-5)
     assert t_b[0] - r_be @ t_e[0] == pytest.approx(truth[:3, 3], abs=1e-5)
-    clean = T.observe(env.peg_poses(), env.entrance_inv, env.bottom_inv)
+    clean = T.observe_matrices(env.peg_poses(), env.entrance_inv, env.bottom_inv)
     err = np.abs(obs[0, :3] - clean[0, :3]).max()
     assert 1e-6 < err < 0.003  # 0.5 mm standard deviation
 
