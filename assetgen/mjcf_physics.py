@@ -24,6 +24,7 @@ x 1e6), as the task's controller holds it; see the functions for why.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +39,9 @@ chattering contact (~10 mm/s and up), above the slow creep of MuJoCo's soft fric
 a wall (~0.1 mm/s with friction 1 and impratio 1)."""
 REST_ANGULAR_SPEED = 1e-2
 """... and turning slower than this (rad/s)."""
+SEATED_LIFT = 1e-6
+"""m above the floor at which `side_push_test` measures the seated peg's free travel: far
+below any tolerance of interest, enough for every distance to the floor to be positive."""
 
 
 @dataclass
@@ -286,10 +290,11 @@ def side_push_test(
     xml_path: Path,
     *,
     force: float = 5.0,
-    directions: int = 8,
+    directions: int | Sequence[float] = 8,
     steps: int = 400,
     insertion: float = 1.0,
     axial_force: float = 0.0,
+    gravity: float = 0.0,
     speed: float | None = 0.01,
     hold_orientation: bool = True,
     rest_steps: int = 40,
@@ -297,13 +302,15 @@ def side_push_test(
     """Push the inserted peg sideways against the walls, in several directions.
 
     For each of `directions` directions evenly spread across the hole axis (the bottom
-    frame's x-y plane, starting at its x), the peg starts aligned with the hole at rest,
-    `insertion` of the way from the entrance to its design pose (1: the design pose,
-    clearance on every face; 0.5: mid-depth), and a constant `force` N pushes it that way,
-    plus `axial_force` N down the axis (0: the task's weightless peg floating in the hole),
-    both at the COM; while it touches nothing it moves at `speed` m/s at most (module
-    docstring; None: a free impact). Each push runs until the peg has rested under the full
-    force for `rest_steps` physics steps, `steps` at most. Gravity is off.
+    frame's x-y plane, starting at its x), or each of the angles `directions` (rad from the
+    bottom frame's x, e.g. `side_face_angles`, `corner_angles`), the peg starts aligned with
+    the hole at rest, `insertion` of the way from the entrance to its design pose (1: the
+    design pose, clearance on every face; 0.5: mid-depth), and a constant `force` N pushes it
+    that way, plus `axial_force` N and the peg's weight under `gravity` m/s^2 down the axis
+    (both 0: the task's weightless peg floating in the hole), all at the COM; while it
+    touches nothing it moves at `speed` m/s at most (module docstring; None: a free impact).
+    Each push runs until the peg has rested under the full force for `rest_steps` physics
+    steps, `steps` at most. MuJoCo's own gravity is off (the weight is part of the push).
 
     With `hold_orientation` (default) the peg's rotational inertia is scaled by 1e6, so it
     translates only, as the task's controller holds the orientation: a free weightless peg
@@ -333,6 +340,13 @@ def side_push_test(
       overshoot            per direction, as above
       free_travel          per direction, the free travel along the push direction (the
                            clearance towards a face, more towards a corner)
+      angles               per direction, its angle (rad) from the bottom frame's x
+      along                per direction, the largest displacement along the push
+      along_at_rest        per direction, the final displacement along the push
+      seated_free_travel   per direction, the free travel along the push from the seated
+                           pose (frame on the bottom frame, 1 um above the floor): where a
+                           peg held down on the floor can go (towards a face: at most the
+                           clearance, less for a tapered peg whose walls close in below)
       clearance            the module's clearance
       steps                physics steps simulated, all directions
       seconds              wall time (load + all the pushes)
@@ -345,20 +359,27 @@ def side_push_test(
     if hold_orientation:
         s.model.body_inertia[s.body] *= 1e6
     x, y, axis = s.bottom_rot.T
+    down = axial_force + float(s.model.body_subtreemass[s.body]) * gravity
     start_axial = s.clearance + (1.0 - insertion) * (s.depth - s.clearance)
-    out: dict[str, list] = {
-        k: [] for k in ("lateral", "lateral_at_rest", "axial_at_rest", "overshoot", "free_travel")
-    }
+    names = ("lateral", "lateral_at_rest", "axial_at_rest", "overshoot", "free_travel")
+    names += ("along", "along_at_rest", "seated_free_travel")
+    out: dict[str, list] = {k: [] for k in names}
+    if isinstance(directions, int):
+        angles = [2.0 * np.pi * k / directions for k in range(directions)]
+    else:
+        angles = [float(a) for a in directions]
     rest_pen, all_pen = [], []
     settled, total = True, 0
-    for k in range(directions):
-        angle = 2.0 * np.pi * k / directions
+    for angle in angles:
         u = np.cos(angle) * x + np.sin(angle) * y
+        # 1 um above the floor: a pose touching the floor has no free travel at all
+        s.reset(SEATED_LIFT)
+        out["seated_free_travel"].append(_free_travel(s, u, limit=s.clearance + 0.01))
         s.reset(start_axial)
         start = s.peg_pos()
         out["free_travel"].append(_free_travel(s, u, limit=s.clearance + 0.01))
         pos, pen, ok = _push(
-            s, force * u - axial_force * axis, speed=speed, max_steps=steps, rest_steps=rest_steps
+            s, force * u - down * axis, speed=speed, max_steps=steps, rest_steps=rest_steps
         )
         mujoco.mj_forward(s.model, s.data)
         rest_pen.append(s.penetration())
@@ -368,11 +389,14 @@ def side_push_test(
         out["lateral"].append(float(lat.max()))
         out["lateral_at_rest"].append(float(lat[-1]))
         out["axial_at_rest"].append(float(delta[-1] @ axis))
-        moved = float(np.linalg.norm(delta[-1]))
+        out["along"].append(float((delta @ u).max()))
+        out["along_at_rest"].append(float(delta[-1] @ u))
+        end_move = delta[-1]
+        moved = float(np.linalg.norm(end_move))
         if moved > 1e-9:
             end = s.peg_pos()
             s.reset(start_axial)  # back to the start pose for the distance query
-            free = _free_travel(s, delta[-1] / moved, limit=moved + 0.01)
+            free = _free_travel(s, end_move / moved, limit=moved + 0.01)
             s.data.qpos[s.qpos : s.qpos + 3] = end
             out["overshoot"].append(moved - free)
         else:
@@ -389,7 +413,53 @@ def side_push_test(
         "passed_through": bool(max(overshoot, max(all_pen)) > s.clearance),
         "settled": settled,
         **out,
+        "angles": angles,
         "clearance": s.clearance,
         "steps": total,
         "seconds": time.perf_counter() - t0,
     }
+
+
+def side_face_angles(xml_path: Path, *, tol: float = 1e-3) -> list[float]:
+    """Angles (rad from the bottom frame's x, in its x-y plane, sorted in [-pi, pi)) of the
+    in-plane directions of the peg's side face normals, one per face, read from the peg mesh
+    in the MJCF with the peg seated. The hole's side faces are those faces moved out by the
+    clearance, so these are the directions that push the peg squarely against a hole wall.
+
+    Faces whose normal is within ~25 deg of the axis (the bottom and the top) are left out;
+    side faces of a tapered peg lean by at most ~17 deg (Table I: 25 % taper). Triangles of
+    one face agree within `tol` rad.
+    """
+    s = _load(xml_path)
+    m, d = s.model, s.data
+    s.reset(0.0)
+    mesh = int(m.geom_dataid[s.geom])
+    v0, nv = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+    f0, nf = int(m.mesh_faceadr[mesh]), int(m.mesh_facenum[mesh])
+    vert = m.mesh_vert[v0 : v0 + nv].astype(float)
+    tri = vert[m.mesh_face[f0 : f0 + nf]]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    # mesh frame -> world -> bottom frame (MuJoCo recentres and realigns a mesh on its COM)
+    local = normals @ d.geom_xmat[s.geom].reshape(3, 3).T @ s.bottom_rot
+    side = local[np.abs(local[:, 2]) < 0.9]
+    angles = np.sort(np.arctan2(side[:, 1], side[:, 0]))
+    keep: list[float] = []
+    for a in angles:
+        if not keep or a - keep[-1] > tol:
+            keep.append(float(a))
+    if len(keep) > 1 and keep[0] + 2.0 * np.pi - keep[-1] <= tol:
+        keep.pop()  # one face split across the -pi / pi seam
+    return keep
+
+
+def corner_angles(face_angles: Sequence[float]) -> list[float]:
+    """Angles midway between consecutive face directions (sorted, as `side_face_angles`):
+    towards the hole's corners. With the same clearance on both faces, the corner of the
+    peg's free space between two faces lies on the bisector of their normals, c / cos(half
+    the angle between the normals) from the design pose."""
+    a = np.asarray(face_angles, float)
+    nxt = np.roll(a, -1)
+    nxt[-1] += 2.0 * np.pi
+    mid = 0.5 * (a + nxt)
+    return [float(np.arctan2(np.sin(t), np.cos(t))) for t in mid]
