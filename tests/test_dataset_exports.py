@@ -85,4 +85,3 @@ def test_every_mjcf_holds_the_peg_against_faces_and_corners(tiny_dataset):
         assert r["face_move_over_free"] < 0.1e-3, (mid, r)
         assert r["face_penetration_at_rest"] < 0.1e-3, (mid, r)
         assert r["penetration_at_rest"] < 0.1e-3, (mid, r)
-
