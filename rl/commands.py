@@ -3,7 +3,8 @@
     add_train_parser(subparsers, make_env)       assetgen train ...
     add_eval_parser(subparsers, make_eval_env)   assetgen eval-agent ...
 
-`make_env(dataset: str, num_envs: int, seed: int) -> VecEnv` (rl/vec_env.py) is supplied by
+`make_env(dataset: str, num_envs: int, seed: int, **task) -> VecEnv` (rl/vec_env.py; train passes
+`curriculum_steps=N`, the length of the env's spawn curriculum, as a keyword) is supplied by
 the caller, so rl/ never imports the simulator. Each parser sets `func(args) -> int` (an exit
 code), as the other subcommands do.
 
@@ -23,8 +24,8 @@ from pathlib import Path
 
 from rl.vec_env import VecEnv
 
-MakeEnv = Callable[[str, int, int], VecEnv]
-"""make_env(dataset, num_envs, seed) -> a VecEnv."""
+MakeEnv = Callable[..., VecEnv]
+"""make_env(dataset, num_envs, seed, **task) -> a VecEnv."""
 
 
 def add_train_parser(
@@ -61,6 +62,11 @@ def add_train_parser(
     p.add_argument("--out", type=Path, required=True, help="run folder")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
+    p.add_argument(
+        "--curriculum-steps",
+        type=int,
+        help="env steps over which spawn ranges grow to full (default: the preset's; 0: off)",
+    )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument("--threads", type=int, help="torch CPU threads (default: torch's)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -85,7 +91,16 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             raise ValueError(f"--steps {args.steps}: give a positive number of env steps")
         if args.minutes is not None and args.minutes <= 0:
             raise ValueError(f"--minutes {args.minutes}: give a positive duration")
-        env = make_env(args.dataset, args.envs or setup.num_envs, args.seed)
+        curriculum = setup.curriculum_steps
+        if args.curriculum_steps is not None:
+            if args.curriculum_steps < 0:
+                raise ValueError(
+                    f"--curriculum-steps {args.curriculum_steps}: give 0 (off) or more steps"
+                )
+            curriculum = args.curriculum_steps
+        env = make_env(
+            args.dataset, args.envs or setup.num_envs, args.seed, curriculum_steps=curriculum
+        )
         result = train(
             args.algo,
             env,
@@ -98,6 +113,7 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             stack=args.stack,
             device=args.device,
             progress=not args.no_progress,
+            env_options={"curriculum_steps": curriculum},
         )
     except (ValueError, CheckpointError) as e:
         console.print(f"[bold red]error:[/] {e}")

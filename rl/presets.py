@@ -29,6 +29,10 @@ class Setup:
     """Env steps (summed over envs) when neither --steps nor --minutes is given."""
     checkpoint_steps: int
     """Env steps between periodic checkpoints (rounded up to whole iterations)."""
+    curriculum_steps: int = 50_000_000
+    """Env steps over which the env's spawn ranges grow from zero to full (the paper: the
+    first 50 M of 100 M); passed to `make_env`. A run shorter than this trains on a
+    fraction of the ranges it is evaluated on."""
 
 
 PRESETS: dict[str, dict[str, Setup]] = {
@@ -47,9 +51,9 @@ PRESETS: dict[str, dict[str, Setup]] = {
         ),
     },
     "cpu": {
-        # sized on a 2-core CPU (about 1-4 k env steps/s for PPO, 0.5-1.5 k for SAC): short
-        # trials on 16 modules learned under the sim's curriculum (see the report); give the
-        # env a curriculum of about half of total_steps
+        # sized on a 2-core CPU (about 1-4 k env steps/s for PPO, 0.5-1.5 k for SAC): the
+        # curriculum spans about half of what a 60-minute run reaches, so the second half
+        # trains on the full spawn ranges it is evaluated on
         "ppo": Setup(
             PPOConfig(
                 hidden=(256, 256),
@@ -64,6 +68,7 @@ PRESETS: dict[str, dict[str, Setup]] = {
             num_envs=64,
             total_steps=10_000_000,
             checkpoint_steps=500_000,
+            curriculum_steps=3_000_000,
         ),
         "sac": Setup(
             SACConfig(
@@ -81,6 +86,7 @@ PRESETS: dict[str, dict[str, Setup]] = {
             num_envs=32,
             total_steps=4_000_000,
             checkpoint_steps=250_000,
+            curriculum_steps=1_000_000,
         ),
         "random": Setup(RandomConfig(), num_envs=64, total_steps=200_000, checkpoint_steps=200_000),
     },

@@ -357,6 +357,7 @@ def train(
     device: str | torch.device | None = None,
     progress: bool = True,
     tensorboard: bool = True,
+    env_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Train `algo` ("ppo", "sac", "random") on `env` (the rl/vec_env.py contract).
 
@@ -364,7 +365,8 @@ def train(
     counted from the run's start, rounded up to whole iterations); minutes: wall-clock
     limit of this call; neither: the preset's total_steps. stack > 1 wraps the env in
     StackObs(env, stack). resume continues the run saved in out_dir (same settings
-    required). Returns {"status": "done" | "nan" | "interrupted", "iterations",
+    required). env_options: how `env` was made (e.g. its curriculum length), recorded with
+    the run and checked on resume. Returns {"status": "done" | "nan" | "interrupted", "iterations",
     "env_steps", "seconds", "episodes", "checkpoint", "metrics" (the last row)}.
     """
     setup = get_setup(preset, algo) if isinstance(preset, str) else preset
@@ -379,7 +381,7 @@ def train(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / CHECKPOINT
-    meta = run_meta(algo, config, env, stack, seed)
+    meta = run_meta(algo, config, env, stack, seed) | {"env_options": env_options or {}}
     n = env.num_envs
 
     # seeding before the networks are built makes their initialisation reproducible

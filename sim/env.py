@@ -27,6 +27,7 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -330,10 +331,16 @@ def _dataset_root(dataset: str | Path) -> Path:
         raise ValueError(str(e)) from e
 
 
-def make_train_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:
-    """rl's `make_env(dataset, num_envs, seed)` for training: the paper's task with its
-    curriculum; `seed` picks the module assignment beyond the dataset's size."""
-    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, TaskConfig(), assignment_seed=seed)
+def make_train_env(
+    dataset: str, num_envs: int, seed: int, curriculum_steps: int | None = None
+) -> PegInHoleVecEnv:
+    """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
+    paper's task with its curriculum over `curriculum_steps` env steps (default: the
+    paper's 50 M); `seed` picks the module assignment beyond the dataset's size."""
+    config = TaskConfig()
+    if curriculum_steps is not None:
+        config = replace(config, curriculum_steps=int(curriculum_steps))
+    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, config, assignment_seed=seed)
 
 
 def make_eval_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:

@@ -174,8 +174,8 @@ def test_evaluate_counts_exact_episodes_per_env() -> None:
 def test_commands(tmp_path, capsys) -> None:
     made = []
 
-    def make_env(dataset: str, num_envs: int, seed: int):
-        made.append((dataset, num_envs, seed))
+    def make_env(dataset: str, num_envs: int, seed: int, **task):
+        made.append((dataset, num_envs, seed, task))
         return ToyEnv(num_envs)
 
     parser = argparse.ArgumentParser(prog="assetgen")
@@ -189,7 +189,11 @@ def test_commands(tmp_path, capsys) -> None:
     args = parser.parse_args(argv)
     assert args.func(args) == 0
     res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert res["status"] == "done" and res["env_steps"] == 128 and made[-1] == ("toy", 2, 5)
+    assert res["status"] == "done" and res["env_steps"] == 128
+    curriculum = get_setup("cpu", "ppo").curriculum_steps
+    assert made[-1] == ("toy", 2, 5, {"curriculum_steps": curriculum})
+    meta = json.loads((out / "config.json").read_text())
+    assert meta["env_options"] == {"curriculum_steps": curriculum}
     args = parser.parse_args(["eval-agent", "--run", str(out), "--dataset", "toy",
                               "--episodes", "1", "--json"])  # fmt: skip
     assert args.func(args) == 0
@@ -200,3 +204,12 @@ def test_commands(tmp_path, capsys) -> None:
     assert "already holds a run" in " ".join(capsys.readouterr().err.split())
     with pytest.raises(SystemExit):
         parser.parse_args([*argv, "--minutes", "1"])  # --steps and --minutes exclude each other
+    # resuming with another curriculum is refused, naming it
+    args = parser.parse_args([*argv, "--resume", "--curriculum-steps", "7"])
+    assert args.func(args) == 2
+    assert "env_options.curriculum_steps" in " ".join(capsys.readouterr().err.split())
+    args = parser.parse_args(
+        [*argv[:-2], "--out", str(tmp_path / "r2"), "--curriculum-steps", "-1"]
+    )
+    assert args.func(args) == 2
+    assert "--curriculum-steps -1" in " ".join(capsys.readouterr().err.split())
