@@ -197,9 +197,11 @@ class PegInHoleVecEnv:
                 f"actions must have shape (num_envs, 6) = ({self.num_envs}, 6), got "
                 f"{np.shape(actions)}"
             )
-        bad = ~np.isfinite(a).all(axis=1)
-        if bad.any():
-            envs = np.flatnonzero(bad).tolist()
+        # one reduction on the common path (NaN and inf propagate; a sum of huge finite
+        # actions that overflows is looked at row by row too and passes)
+        bad = [] if np.isfinite(a.sum()) else np.flatnonzero(~np.isfinite(a).all(axis=1))
+        if len(bad):
+            envs = bad.tolist()
             raise ValueError(
                 f"actions of envs {envs[:20]}{' ...' if len(envs) > 20 else ''} contain NaN "
                 "or inf; actions must be finite (they are clipped to [-1, 1])"
@@ -235,9 +237,11 @@ class PegInHoleVecEnv:
         failure &= ~success & ~unstable
         # c_T - c_{T-1} + (1 - c_T) = 1 - c_{T-1} = 1 - (return so far), written so that the
         # float sum of a successful episode's rewards is exactly 1.0
-        reward[success] = 1.0 - self._return[success]
-        reward[failure] = cfg.failure_reward
-        reward[unstable] = 0.0
+        if success.any():
+            reward[success] = 1.0 - self._return[success]
+        if failure.any() or unstable.any():
+            reward[failure] = cfg.failure_reward
+            reward[unstable] = 0.0
         self._return += reward
         self._c_prev = c
 
@@ -245,7 +249,9 @@ class PegInHoleVecEnv:
         truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
         done = terminated | truncated
         obs = self._observe(pos, quat)
-        obs[unstable] = self._obs[unstable]  # the last finite observation
+        if unstable.any():
+            obs[unstable] = self._obs[unstable]  # the last finite observation
+            self.unstable_count += int(unstable.sum())
         info = {
             "final_obs": obs.copy(),
             "success": success,
@@ -257,8 +263,6 @@ class PegInHoleVecEnv:
             "module": self.env_module.copy(),
             "peg_pose": self.sim.state[:, 1:8].copy(),
         }
-        if unstable.any():
-            self.unstable_count += int(unstable.sum())
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
