@@ -354,7 +354,8 @@ def plot_learning_curves(curves: dict[str, Curve], path: Path) -> None:
 def plot_time_to_success(
     cells: dict[str, dict[str, Cell]], path: Path, split: str = "test"
 ) -> None:
-    """Histogram of time to success (s) per variant on `split`, its median a dashed line."""
+    """Histogram (density, 1/s) of time to success (s) per variant on `split`, its median
+    a dashed line; the legend gives the median and the count of successes."""
     import matplotlib.pyplot as plt
 
     fig, ax = _figure()
@@ -372,11 +373,20 @@ def plot_time_to_success(
             continue
         med = c.median_time_to_success_s
         label = f"{v}: median {med:.2f} s ({len(c.time_to_success_s)} successes)"
-        ax.hist(c.time_to_success_s, bins=bins, histtype="step", lw=1.5, color=col, label=label)
+        # density, not counts: variants with more seeds or successes would hide the others
+        ax.hist(
+            c.time_to_success_s,
+            bins=bins,
+            density=True,
+            histtype="step",
+            lw=1.5,
+            color=col,
+            label=label,
+        )
         ax.axvline(med, color=col, ls="--", lw=1.5)
     if not have:
         ax.text(0.5, 0.5, f"no {split}-set evaluation", ha="center", transform=ax.transAxes)
-    ax.set(xlabel="time to success (s)", ylabel="successful episodes")
+    ax.set(xlabel="time to success (s)", ylabel="density of successful episodes (1/s)")
     ax.set_title(f"Time to success on the {split} set (dashed: median)")
     ax.grid(alpha=0.3)
     if have:
