@@ -12,13 +12,17 @@ code), as the other subcommands do.
                    [--steps N | --minutes M] [--seed S] --out RUN_DIR [--resume]
                    [--envs N] [--device cpu|cuda] [--threads T] [--no-progress]
     assetgen eval-agent --run RUN_DIR --dataset D [--episodes 10] [--envs N] [--seed S]
-                   [--stochastic] [--json]
+                   [--stochastic] [--json] [--out FILE.json]
+    assetgen report RUN_DIR... [--baselines FILE_OR_DIR...] --out DIR
+
+`report` (add_report_parser) needs no env: it reads run folders and evaluation JSONs.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -148,6 +152,7 @@ def add_eval_parser(
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument("--stochastic", action="store_true", help="sample actions")
     p.add_argument("--json", action="store_true", help="print the results as one JSON line")
+    p.add_argument("--out", type=Path, help="write the results JSON here (for `report`)")
     p.set_defaults(func=lambda args: eval_main(args, make_env))
     return p
 
@@ -180,7 +185,22 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     except (ValueError, CheckpointError) as e:
         console.print(f"[bold red]error:[/] {e}")
         return 2
-    res = {"algo": meta["algo"], "stack": meta["stack"], **res}
+    # algo, stack, run and dataset let `assetgen report` name the variant and the split
+    res = {
+        "algo": meta["algo"],
+        "stack": meta["stack"],
+        "run": str(args.run),
+        "dataset": str(args.dataset),
+        **res,
+    }
+    out = getattr(args, "out", None)  # absent when a caller builds args without --out
+    if out is not None:
+        strict = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in res.items()}
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(out.name + ".tmp")  # never a half-written file under the real name
+        tmp.write_text(json.dumps(strict))
+        tmp.replace(out)
     if args.json:
         print(json.dumps(res))
         return 0
@@ -198,4 +218,44 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")
+    return 0
+
+
+def add_report_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register `report`: figures, Table III and report.json from runs and eval files."""
+    p = subparsers.add_parser(
+        "report",
+        help="learning curves, time-to-success plot and Table III from runs and evaluations",
+        description="Reads each RUN_DIR (config.json, metrics.csv, eval_*.json written by "
+        "`assetgen eval --checkpoint RUN_DIR --out RUN_DIR/eval_<split>.json`) and the "
+        "--baselines evaluation JSONs (`assetgen eval --agent scripted|random --out ...`); "
+        "writes learning_curves.png, time_to_success.png, table.md and report.json into --out. "
+        "Runs of the same algo and stack are seeds of one variant (mean ± std).",
+    )
+    p.add_argument("runs", nargs="*", type=Path, help="training run folders")
+    p.add_argument(
+        "--baselines",
+        nargs="+",
+        type=Path,
+        default=[],
+        help="evaluation JSON files, or folders of them (e.g. results/)",
+    )
+    p.add_argument("--out", type=Path, required=True, help="report folder")
+    p.set_defaults(func=report_main)
+    return p
+
+
+def report_main(args: argparse.Namespace) -> int:
+    """Write the report; print the table. Exit code 0, or 2 on bad input."""
+    from rl.report import ReportError, write_report
+
+    try:
+        write_report(args.runs, args.baselines, args.out)
+    except ReportError as e:
+        from rich.console import Console
+
+        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {e}")
+        return 2
+    print((args.out / "table.md").read_text(), end="")
+    print(f"wrote {args.out}/learning_curves.png, time_to_success.png, table.md, report.json")
     return 0

@@ -1,0 +1,455 @@
+"""The paper's figures and Table III from training runs and evaluation files.
+
+Inputs (nothing here trains or simulates; torch is not needed):
+
+    RUN_DIR/config.json       written by rl/runner.py train(): algo, stack, seed, config, ...
+    RUN_DIR/metrics.csv       one row per iteration; columns env_steps, success_rate (the
+                              fraction of the last finished training episodes that succeeded)
+    RUN_DIR/eval_*.json       `assetgen eval --checkpoint RUN_DIR --out ...` (rl/commands.py)
+    baseline *.json           `assetgen eval --agent scripted|random --out ...` (sim/evaluate.py)
+
+An evaluation file needs: success_rate (fraction), episodes (count), time_to_success_s (list
+of seconds, one per success), dataset (the split's name or folder: its last path component,
+"train" or "test", names the column), and either algo + stack (a trained run) or agent.
+
+Runs are grouped into variants (`variant_name`: SAC + stack 10 -> "SAC-STACK"); the seeds of a
+variant give mean ± std (population std, ddof = 0) over runs. Outputs of `write_report`:
+learning_curves.png, time_to_success.png, table.md and report.json in one folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+PAPER_SUCCESS_PCT: dict[str, tuple[float, float]] = {
+    "random": (0.00, 0.00),
+    "PPO": (0.00, 0.00),
+    "PPO-STACK": (20.52, 20.10),
+    "SAC": (68.53, 49.73),
+    "SAC-STACK": (82.97, 54.70),
+    "DreamerV3": (94.32, 93.94),
+}
+"""Paper Table III (shared/reference.md): variant -> (train set, test set) success in %."""
+PAPER_MEDIAN_TEST_S: dict[str, float] = {"SAC-STACK": 2.22, "DreamerV3": 1.60}
+"""Paper: median time until success on the test set, seconds."""
+ROW_ORDER = ("random", "PPO", "PPO-STACK", "SAC", "SAC-STACK", "DreamerV3", "scripted")
+"""Table rows always shown, in the paper's order; other variants follow, sorted."""
+SPLITS = ("train", "test")
+"""Table columns always shown; evaluations on other datasets add columns after these."""
+DASH = "–"
+
+
+class ReportError(ValueError):
+    """A run folder or evaluation file that cannot be read; the message names the path."""
+
+
+@dataclass(frozen=True)
+class EvalResult:
+    """One evaluation file.
+
+    time_to_success_s: (k,) float seconds, one per successful episode (k = successes).
+    """
+
+    path: Path
+    variant: str
+    split: str
+    episodes: int
+    success_rate: float
+    time_to_success_s: np.ndarray
+
+
+@dataclass(frozen=True)
+class Run:
+    """One training run (one seed of a variant).
+
+    env_steps: (T,) int env steps summed over envs at the end of each logged iteration.
+    success_rate: (T,) float in [0, 1]; NaN where no training episode had finished yet.
+    """
+
+    path: Path
+    variant: str
+    seed: int
+    env_steps: np.ndarray
+    success_rate: np.ndarray
+    evals: tuple[EvalResult, ...]
+
+
+@dataclass(frozen=True)
+class Curve:
+    """Success rate of a variant's runs on a shared env-step grid.
+
+    env_steps, mean, std: (G,) over the range every run covers (cut at the shortest run), each
+    run linearly interpolated onto the union of the runs' logged steps; std over runs, ddof 0.
+    """
+
+    variant: str
+    runs: int
+    env_steps: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A variant on one split: `evals` files pooled.
+
+    success_mean, success_std: fraction, over the files (seeds), ddof 0. episodes: summed.
+    time_to_success_s: (k,) seconds, all files' successes pooled; median over them (NaN if k = 0).
+    """
+
+    evals: int
+    episodes: int
+    success_mean: float
+    success_std: float
+    time_to_success_s: np.ndarray
+
+    @property
+    def median_time_to_success_s(self) -> float:
+        t = self.time_to_success_s
+        return float(np.median(t)) if len(t) else math.nan
+
+
+def variant_name(algo: str, stack: int) -> str:
+    """The paper's name for an agent: ("sac", 10) -> "SAC-STACK", ("ppo", 1) -> "PPO".
+
+    A stack other than the paper's 10 keeps its size in the name ("SAC-STACK4") so runs
+    that differ are never averaged together.
+    """
+    if algo in ("random", "scripted"):
+        base = algo
+    elif algo.lower() == "dreamerv3":
+        base = "DreamerV3"
+    else:
+        base = algo.upper()
+    if stack <= 1:
+        return base
+    return f"{base}-STACK" if stack == 10 else f"{base}-STACK{stack}"
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise ReportError(f"{path}: cannot read it as JSON ({e})") from e
+    if not isinstance(doc, dict):
+        raise ReportError(f"{path}: expected a JSON object")
+    return doc
+
+
+def load_eval(path: str | Path) -> EvalResult:
+    """Read one evaluation JSON (schema in the module docstring)."""
+    path = Path(path)
+    doc = _read_json(path)
+    missing = [
+        k for k in ("success_rate", "episodes", "time_to_success_s", "dataset") if k not in doc
+    ]
+    if "algo" in doc:
+        variant = variant_name(doc["algo"], int(doc.get("stack", 1)))
+    elif "agent" in doc:
+        variant = variant_name(str(doc["agent"]), 1)
+    else:
+        missing.append("algo or agent")
+    if missing:
+        raise ReportError(
+            f"{path}: not an evaluation file of `assetgen eval --out` (missing {missing}); "
+            "re-run the evaluation with --out"
+        )
+    return EvalResult(
+        path=path,
+        variant=variant,
+        split=Path(str(doc["dataset"])).name,  # "datasets/test" and "test" both name the split
+        episodes=int(doc["episodes"]),
+        success_rate=float(doc["success_rate"]),
+        time_to_success_s=np.asarray(doc["time_to_success_s"], dtype=float),
+    )
+
+
+def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        cols = reader.fieldnames or []
+        if "env_steps" not in cols or "success_rate" not in cols:
+            raise ReportError(
+                f"{path}: needs the columns env_steps and success_rate (rl/runner.py); has {cols}"
+            )
+        rows = list(reader)
+    # an empty cell or "nan": no training episode had finished by that iteration
+    rate = [float(r["success_rate"]) if r["success_rate"] else math.nan for r in rows]
+    return np.array([int(float(r["env_steps"])) for r in rows], dtype=np.int64), np.array(rate)
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a run folder: config.json, metrics.csv and any eval_*.json."""
+    path = Path(path)
+    config, metrics = path / "config.json", path / "metrics.csv"
+    if not path.is_dir() or not config.is_file() or not metrics.is_file():
+        raise ReportError(
+            f"{path} is not a training run: it needs config.json and metrics.csv "
+            "(written by `assetgen train --out RUN_DIR`); give run folders only"
+        )
+    meta = _read_json(config)
+    if "algo" not in meta:
+        raise ReportError(f"{config}: no 'algo' key; is this a run of `assetgen train`?")
+    variant = variant_name(meta["algo"], int(meta.get("stack", 1)))
+    steps, rate = _read_metrics(metrics)
+    evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
+    for e in evals:
+        if e.variant != variant:
+            raise ReportError(f"{e.path} evaluates {e.variant}, but the run {path} is {variant}")
+    splits = [e.split for e in evals]
+    if len(set(splits)) != len(splits):
+        raise ReportError(f"{path} has two evaluation files of one dataset: keep one per dataset")
+    return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals)
+
+
+def load_baselines(paths: list[str | Path]) -> list[EvalResult]:
+    """Evaluation files given directly or as folders (every *.json directly inside)."""
+    files: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            files += sorted(p.glob("*.json"))
+        elif p.is_file():
+            files.append(p)
+        else:
+            raise ReportError(f"{p}: no such file or folder of evaluation JSONs")
+    return [load_eval(f) for f in files]
+
+
+def learning_curve(runs: list[Run]) -> Curve:
+    """Mean ± std over `runs` (one variant) of the training success rate."""
+    ok = [
+        (r.env_steps[m], r.success_rate[m]) for r in runs if (m := ~np.isnan(r.success_rate)).any()
+    ]
+    if not ok:
+        empty = np.zeros(0)
+        return Curve(runs[0].variant, 0, empty.astype(np.int64), empty, empty)
+    lo, hi = max(s[0] for s, _ in ok), min(s[-1] for s, _ in ok)
+    grid = np.unique(np.concatenate([s for s, _ in ok]))
+    grid = grid[(grid >= lo) & (grid <= hi)]
+    ys = np.stack([np.interp(grid, s, y) for s, y in ok])  # (runs, G)
+    return Curve(runs[0].variant, len(ok), grid, ys.mean(0), ys.std(0))
+
+
+def eval_cell(evals: list[EvalResult]) -> Cell:
+    """Pool a variant's evaluation files of one split (one file per seed)."""
+    rates = np.array([e.success_rate for e in evals])
+    tts = np.concatenate([e.time_to_success_s for e in evals]) if evals else np.zeros(0)
+    return Cell(len(evals), sum(e.episodes for e in evals), rates.mean(), rates.std(), tts)
+
+
+def _order(names: set[str]) -> list[str]:
+    return [v for v in ROW_ORDER if v in names] + sorted(names - set(ROW_ORDER))
+
+
+def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
+    """Group by variant: {"curves": {variant: Curve}, "cells": {variant: {split: Cell}},
+    "seeds": {variant: [seed, ...]}, "splits": [split, ...]}."""
+    by_variant: dict[str, list[Run]] = {}
+    for r in runs:
+        by_variant.setdefault(r.variant, []).append(r)
+    curves = {v: learning_curve(rs) for v, rs in by_variant.items()}
+    evals = [e for r in runs for e in r.evals] + list(baselines)
+    groups: dict[tuple[str, str], list[EvalResult]] = {}
+    for e in evals:
+        groups.setdefault((e.variant, e.split), []).append(e)
+    cells: dict[str, dict[str, Cell]] = {}
+    for (v, s), es in groups.items():
+        cells.setdefault(v, {})[s] = eval_cell(es)
+    splits = list(SPLITS) + sorted({e.split for e in evals} - set(SPLITS))
+    seeds = {v: sorted(r.seed for r in rs) for v, rs in by_variant.items()}
+    return {"curves": curves, "cells": cells, "seeds": seeds, "splits": splits}
+
+
+def _pct(cell: Cell | None) -> str:
+    if cell is None:
+        return DASH
+    std = f" ± {100 * cell.success_std:.2f}" if cell.evals > 1 else ""
+    return f"{100 * cell.success_mean:.2f}{std} % (n = {cell.episodes})"
+
+
+def markdown_table(summary: dict[str, Any]) -> str:
+    """Table III layout: one row per agent, success on each split, median time on test."""
+    cells, splits = summary["cells"], summary["splits"]
+    names = set(ROW_ORDER) | set(cells) | set(summary["curves"])
+    head = ["agent", "seeds", *(f"{s} set" for s in splits), "median time to success (test)"]
+    head += ["paper train set", "paper test set", "paper median (test)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for v in _order(names):
+        row = cells.get(v, {})
+        test = row.get("test")
+        median = test.median_time_to_success_s if test is not None else math.nan
+        paper = PAPER_SUCCESS_PCT.get(v)
+        n_seeds = len(summary["seeds"].get(v, [])) or max(
+            (c.evals for c in row.values()), default=0
+        )
+        values = [
+            v,
+            str(n_seeds) if n_seeds else DASH,
+            *(_pct(row.get(s)) for s in splits),
+            DASH if math.isnan(median) else f"{median:.2f} s",
+            f"{paper[0]:.2f} %" if paper else DASH,
+            f"{paper[1]:.2f} %" if paper else DASH,
+            f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
+        ]
+        lines.append("| " + " | ".join(values) + " |")
+    return "\n".join(lines) + (
+        "\n\nSuccess: mean ± std over seeds (one evaluation file each; no ± for one file), "
+        "n = episodes pooled. Median time to success pooled over the seeds' successful "
+        "episodes. Paper: Orsula et al. 2024, Table III (10 attempts per module).\n"
+    )
+
+
+def _color(variant: str) -> Any:
+    import matplotlib
+
+    names = list(ROW_ORDER)
+    i = names.index(variant) if variant in names else len(names) + sum(map(ord, variant))
+    return matplotlib.colormaps["tab10"](i % 10)
+
+
+def _figure() -> tuple[Any, Any]:
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only: no display on servers and CI
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(figsize=(8, 5), dpi=100)
+
+
+def plot_learning_curves(curves: dict[str, Curve], path: Path) -> None:
+    """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = _figure()
+    for v in _order(set(curves)):
+        c = curves[v]
+        if not c.runs:
+            continue
+        col = _color(v)
+        ax.plot(
+            c.env_steps, 100 * c.mean, color=col, label=f"{v} ({c.runs} seed{'s' * (c.runs > 1)})"
+        )
+        ax.fill_between(
+            c.env_steps, 100 * (c.mean - c.std), 100 * (c.mean + c.std), color=col, alpha=0.25
+        )
+    if not any(c.runs for c in curves.values()):
+        ax.text(0.5, 0.5, "no finished training episodes", ha="center", transform=ax.transAxes)
+    ax.set(xlabel="environment steps", ylabel="training success rate (%)", ylim=(-2, 102))
+    ax.set_title("Learning curves (mean ± std over seeds)")
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def plot_time_to_success(
+    cells: dict[str, dict[str, Cell]], path: Path, split: str = "test"
+) -> None:
+    """Histogram (density, 1/s) of time to success (s) per variant on `split`, its median
+    a dashed line; the legend gives the median and the count of successes."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = _figure()
+    have = {v: row[split] for v, row in cells.items() if split in row}
+    every = [c.time_to_success_s for c in have.values() if len(c.time_to_success_s)]
+    bins: np.ndarray | int = 10
+    if every:
+        # shared bins so the variants compare; about 0.1 s wide over the episodes' 10 s
+        top = max(float(np.max(np.concatenate(every))), 1e-3)
+        bins = np.linspace(0.0, top, max(10, min(100, int(top / 0.1) + 1)))
+    for v in _order(set(have)):
+        c, col = have[v], _color(v)
+        if not len(c.time_to_success_s):
+            ax.plot([], [], color=col, label=f"{v}: no success (n = {c.episodes})")
+            continue
+        med = c.median_time_to_success_s
+        label = f"{v}: median {med:.2f} s ({len(c.time_to_success_s)} successes)"
+        # density, not counts: variants with more seeds or successes would hide the others
+        ax.hist(
+            c.time_to_success_s,
+            bins=bins,
+            density=True,
+            histtype="step",
+            lw=1.5,
+            color=col,
+            label=label,
+        )
+        ax.axvline(med, color=col, ls="--", lw=1.5)
+    if not have:
+        ax.text(0.5, 0.5, f"no {split}-set evaluation", ha="center", transform=ax.transAxes)
+    ax.set(xlabel="time to success (s)", ylabel="density of successful episodes (1/s)")
+    ax.set_title(f"Time to success on the {split} set (dashed: median)")
+    ax.grid(alpha=0.3)
+    if have:
+        ax.legend(loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _num(x: float) -> float | None:
+    return None if math.isnan(x) else float(x)  # strict JSON has no NaN
+
+
+def report_json(summary: dict[str, Any]) -> dict[str, Any]:
+    """The summary as plain JSON: curves as lists, cells with their medians, paper numbers."""
+    variants: dict[str, Any] = {}
+    for v in _order(set(summary["curves"]) | set(summary["cells"])):
+        c = summary["curves"].get(v)
+        variants[v] = {
+            "seeds": summary["seeds"].get(v, []),
+            "curve": None
+            if c is None
+            else {
+                "runs": c.runs,
+                "env_steps": c.env_steps.tolist(),
+                "success_mean": c.mean.tolist(),
+                "success_std": c.std.tolist(),
+            },
+            "eval": {
+                s: {
+                    "files": cell.evals,
+                    "episodes": cell.episodes,
+                    "success_mean": _num(cell.success_mean),
+                    "success_std": _num(cell.success_std),
+                    "median_time_to_success_s": _num(cell.median_time_to_success_s),
+                    "successes": len(cell.time_to_success_s),
+                }
+                for s, cell in summary["cells"].get(v, {}).items()
+            },
+        }
+    paper = {
+        v: {"train_pct": t, "test_pct": s, "median_test_s": PAPER_MEDIAN_TEST_S.get(v)}
+        for v, (t, s) in PAPER_SUCCESS_PCT.items()
+    }
+    return {"variants": variants, "paper_table_iii": paper}
+
+
+def write_report(
+    run_paths: list[str | Path], baselines: list[str | Path], out: str | Path
+) -> dict[str, Any]:
+    """Read everything first (so bad input fails before any file is written), then write
+    out/learning_curves.png, out/time_to_success.png, out/table.md, out/report.json.
+    Returns the report.json document."""
+    runs = [load_run(p) for p in run_paths]
+    base = load_baselines(baselines)
+    if not runs and not base:
+        raise ReportError("nothing to report: give run folders and/or --baselines")
+    summary = summarise(runs, base)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    plot_learning_curves(summary["curves"], out / "learning_curves.png")
+    plot_time_to_success(summary["cells"], out / "time_to_success.png")
+    (out / "table.md").write_text(markdown_table(summary))
+    doc = report_json(summary)
+    (out / "report.json").write_text(json.dumps(doc, indent=2))
+    return doc

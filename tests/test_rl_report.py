@@ -1,0 +1,212 @@
+"""`assetgen report`: runs and evaluation files in, figures, Table III and report.json out.
+
+Fake runs use the runner's real metrics columns; one test makes every input with the real
+writers (a toy-env training run, rl's eval writer, the simulator's scripted evaluation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from rl.report import (
+    ReportError,
+    load_eval,
+    load_run,
+    markdown_table,
+    summarise,
+    variant_name,
+    write_report,
+)
+from rl.runner import BASE_COLUMNS
+
+
+def fake_run(
+    path: Path, algo: str, stack: int, seed: int, steps: list[int], rates: list[float]
+) -> Path:
+    """A run folder as rl/runner.py train() writes it (config.json, metrics.csv)."""
+    path.mkdir(parents=True)
+    meta = {"algo": algo, "stack": stack, "seed": seed, "config": {}, "num_envs": 4}
+    (path / "config.json").write_text(json.dumps(meta))
+    with open(path / "metrics.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=BASE_COLUMNS)
+        w.writeheader()
+        for i, (s, r) in enumerate(zip(steps, rates, strict=True)):
+            w.writerow({k: 0 for k in BASE_COLUMNS} | {"iteration": i + 1, "env_steps": s,
+                                                        "success_rate": r})  # fmt: skip
+    return path
+
+
+def fake_eval(path: Path, dataset: str, rate: float, episodes: int, tts: list[float], **who):
+    """An evaluation JSON with the keys both `assetgen eval --out` writers produce."""
+    doc = {"dataset": dataset, "episodes": episodes, "success_rate": rate,
+           "successes": len(tts), "time_to_success_s": tts,
+           "median_time_to_success_s": float(np.median(tts)) if tts else None} | who  # fmt: skip
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def check_png(path: Path) -> None:
+    img = np.asarray(Image.open(path).convert("RGB"))
+    assert img.shape[0] >= 300 and img.shape[1] >= 500
+    assert img.std() > 10  # not a blank canvas
+    assert len(np.unique(img.reshape(-1, 3), axis=0)) > 20  # lines, text, bands
+
+
+def test_variant_names() -> None:
+    assert variant_name("sac", 10) == "SAC-STACK"
+    assert variant_name("ppo", 1) == "PPO"
+    assert variant_name("ppo", 4) == "PPO-STACK4"
+    assert variant_name("random", 1) == "random"
+
+
+def test_two_seeds_mean_std_and_table_by_hand(tmp_path: Path) -> None:
+    a = fake_run(tmp_path / "runs/sac_s0", "sac", 10, 0, [100, 200, 300], [0.0, 0.2, 0.6])
+    b = fake_run(tmp_path / "runs/sac_s1", "sac", 10, 1, [100, 200, 300], [0.2, 0.4, 1.0])
+    fake_eval(a / "eval_test.json", "datasets/test", 0.5, 10, [1.0, 2.0, 3.0, 4.0, 5.0],
+              algo="sac", stack=10)  # fmt: skip
+    fake_eval(b / "eval_test.json", "datasets/test", 0.7, 10, [6.0] * 7, algo="sac", stack=10)
+    fake_eval(b / "eval_train.json", "train", 0.9, 10, [2.0] * 9, algo="sac", stack=10)
+    base = tmp_path / "results"
+    base.mkdir()
+    fake_eval(base / "scripted_test.json", "/x/datasets/test", 1.0, 4, [3.0, 3.5, 4.0, 4.5],
+              agent="scripted")  # fmt: skip
+    fake_eval(base / "random_test.json", "/x/datasets/test", 0.0, 4, [], agent="random")
+
+    doc = write_report([a, b], [base], tmp_path / "report")
+    sac = doc["variants"]["SAC-STACK"]
+    assert sac["seeds"] == [0, 1]
+    assert sac["curve"]["env_steps"] == [100, 200, 300]
+    np.testing.assert_allclose(sac["curve"]["success_mean"], [0.1, 0.3, 0.8])
+    np.testing.assert_allclose(sac["curve"]["success_std"], [0.1, 0.1, 0.2])  # |a - b| / 2
+    test = sac["eval"]["test"]
+    assert test["success_mean"] == pytest.approx(0.6) and test["success_std"] == pytest.approx(0.1)
+    assert test["episodes"] == 20 and test["successes"] == 12
+    assert test["median_time_to_success_s"] == 6.0  # pooled: 1..5 and seven 6.0 -> 6.0
+    assert doc["variants"]["random"]["eval"]["test"]["median_time_to_success_s"] is None
+
+    table = (tmp_path / "report/table.md").read_text()
+    rows = {r.split("|")[1].strip(): [c.strip() for c in r.split("|")[2:-1]]
+            for r in table.splitlines() if r.startswith("| ") and "---" not in r}  # fmt: skip
+    assert rows["agent"][:4] == ["seeds", "train set", "test set", "median time to success (test)"]
+    assert rows["SAC-STACK"][:4] == ["2", "90.00 % (n = 10)", "60.00 ± 10.00 % (n = 20)", "6.00 s"]
+    assert rows["SAC-STACK"][4:] == ["82.97 %", "54.70 %", "2.22 s"]  # the paper's, alongside
+    assert rows["scripted"][1:4] == ["–", "100.00 % (n = 4)", "3.75 s"]
+    assert rows["random"][1:4] == ["–", "0.00 % (n = 4)", "–"]
+    assert rows["PPO"][:4] == ["–", "–", "–", "–"]  # no run: every cell missing
+    assert list(rows)[1:] == ["random", "PPO", "PPO-STACK", "SAC", "SAC-STACK", "DreamerV3",
+                              "scripted"]  # fmt: skip
+    check_png(tmp_path / "report/learning_curves.png")
+    check_png(tmp_path / "report/time_to_success.png")
+    assert json.loads((tmp_path / "report/report.json").read_text()) == doc
+
+
+def test_curves_cut_at_the_shortest_seed_and_skip_unfinished_iterations(tmp_path: Path) -> None:
+    # seed 1 logged NaN (no finished episode) at 100 and stopped at 300
+    a = fake_run(tmp_path / "a", "ppo", 1, 0, [100, 200, 300, 400], [0.0, 0.2, 0.4, 0.6])
+    b = fake_run(tmp_path / "b", "ppo", 1, 1, [100, 150, 300], [math.nan, 0.5, 0.5])
+    c = summarise([load_run(a), load_run(b)], [])["curves"]["PPO"]
+    assert c.runs == 2 and c.env_steps.tolist() == [150, 200, 300]
+    # seed 0 at 150 interpolates to 0.1; seed 1 at 200 holds 0.5
+    np.testing.assert_allclose(c.mean, [0.3, 0.35, 0.45])
+    np.testing.assert_allclose(c.std, [0.2, 0.15, 0.05])
+
+
+def test_run_without_evaluations_still_gets_its_curve(tmp_path: Path) -> None:
+    run = fake_run(tmp_path / "ppo", "ppo", 10, 0, [64, 128], [0.0, 0.5])
+    doc = write_report([run], [], tmp_path / "out")
+    assert doc["variants"]["PPO-STACK"]["curve"]["success_mean"] == [0.0, 0.5]
+    assert doc["variants"]["PPO-STACK"]["eval"] == {}
+    table = (tmp_path / "out/table.md").read_text()
+    assert "| PPO-STACK | 1 | – | – | – | 20.52 % | 20.10 % | – |" in table
+    check_png(tmp_path / "out/learning_curves.png")
+    check_png(tmp_path / "out/time_to_success.png")  # says there is no test-set evaluation
+
+
+def test_not_a_run_is_a_clear_error_naming_the_path(tmp_path: Path) -> None:
+    only_config = tmp_path / "half"
+    only_config.mkdir()
+    (only_config / "config.json").write_text("{}")
+    (tmp_path / "results").mkdir()  # a folder of eval files given as a run by mistake
+    for bad in (tmp_path / "results", only_config, tmp_path / "missing"):
+        with pytest.raises(ReportError, match=f"{bad} is not a training run.*config.json and "
+                           "metrics.csv"):  # fmt: skip
+            write_report([bad], [], tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # nothing written before the input is read
+    bad_eval = fake_eval(tmp_path / "e.json", "test", 0.5, 2, [1.0])  # neither algo nor agent
+    with pytest.raises(ReportError, match=r"e\.json: not an evaluation file"):
+        load_eval(bad_eval)
+    run = fake_run(tmp_path / "r", "sac", 1, 0, [8], [0.0])
+    fake_eval(run / "eval_test.json", "test", 0.5, 2, [1.0], algo="ppo", stack=1)
+    with pytest.raises(ReportError, match=r"evaluates PPO, but the run .* is SAC"):
+        load_run(run)
+
+
+def test_cli_parser_runs_the_report_and_fails_cleanly(tmp_path: Path, capsys) -> None:
+    from rl.commands import add_report_parser
+
+    parser = argparse.ArgumentParser()
+    add_report_parser(parser.add_subparsers())
+    run = fake_run(tmp_path / "run", "sac", 1, 0, [8, 16], [0.0, 1.0])
+    args = parser.parse_args(["report", str(run), "--out", str(tmp_path / "rep")])
+    assert args.func(args) == 0
+    assert "| SAC | 1 | – | – |" in capsys.readouterr().out
+    args = parser.parse_args(["report", str(tmp_path), "--out", str(tmp_path / "rep2")])
+    assert args.func(args) == 2
+    assert "is not a training run" in " ".join(capsys.readouterr().err.split())
+
+
+def test_real_writers_end_to_end(tmp_path: Path) -> None:
+    """A toy-env training run per seed, `eval --checkpoint --out` through rl's writer, and a
+    scripted baseline through the simulator's writer, all into one report."""
+    import torch
+
+    from rl.commands import eval_main
+    from rl.ppo import PPOConfig
+    from rl.presets import Setup
+    from rl.runner import train
+    from rl.toy_env import ToyEnv
+    from sim.evaluate import eval_main as sim_eval_main
+    from tests.test_sim_common import sim_dataset
+
+    torch.set_num_threads(1)
+    setup = Setup(PPOConfig(hidden=(16,), horizon=8, minibatch_size=16, epochs=1), 4, 64, 64)
+    runs = []
+    for seed in (0, 1):
+        out = tmp_path / f"runs/ppo_s{seed}"
+        train("ppo", ToyEnv(4), setup, seed=seed, out_dir=out, stack=2, progress=False,
+              tensorboard=False)  # fmt: skip
+        args = argparse.Namespace(run=out, dataset="test", episodes=2, envs=None, seed=0,
+                                  device="cpu", stochastic=False, json=False,
+                                  out=out / "eval_test.json")  # fmt: skip
+        assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n)) == 0
+        runs.append(out)
+    stored = json.loads((runs[0] / "eval_test.json").read_text())
+    assert {"algo", "stack", "dataset", "run", "episodes", "success_rate",
+            "time_to_success_s"} <= stored.keys()  # fmt: skip
+
+    test_split = tmp_path / "datasets/test"  # the folder's name is the split's
+    test_split.parent.mkdir()
+    test_split.symlink_to(sim_dataset(), target_is_directory=True)
+    sim_args = argparse.Namespace(agent="scripted", dataset=str(test_split), attempts=1,
+                                  seed=0, envs=4, record=None, record_limit=None,
+                                  out=tmp_path / "results/scripted.json", json=True)  # fmt: skip
+    assert sim_eval_main(sim_args) == 0
+
+    doc = write_report(runs, [tmp_path / "results"], tmp_path / "report")
+    ppo = doc["variants"]["PPO-STACK2"]  # stack 2: not the paper's 10
+    assert ppo["seeds"] == [0, 1] and ppo["curve"]["runs"] <= 2
+    assert ppo["eval"]["test"]["episodes"] == 2 * 4 * 2  # 2 seeds x 4 envs x 2 episodes
+    rates = [json.loads((r / "eval_test.json").read_text())["success_rate"] for r in runs]
+    assert ppo["eval"]["test"]["success_mean"] == pytest.approx(np.mean(rates))
+    scripted = doc["variants"]["scripted"]["eval"]["test"]
+    assert scripted["episodes"] == 4 and scripted["files"] == 1
+    check_png(tmp_path / "report/time_to_success.png")
+    assert "| scripted |" in markdown_table(summarise([load_run(r) for r in runs], []))
