@@ -214,6 +214,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             device=None,
             stochastic=False,
             json=args.json,
+            out=args.out,
         )
         return rl_eval_main(run_args, make_eval_env)
     if args.agent is None:
@@ -320,10 +321,11 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=view_main)
 
     try:  # training needs torch (the `rl` extra); the rest of the CLI does not
-        from rl.commands import add_train_parser
+        from rl.commands import add_report_parser, add_train_parser
         from sim import make_train_env
 
         add_train_parser(sub, make_train_env)
+        add_report_parser(sub)
     except ImportError:
         pass
     return p
