@@ -9,6 +9,7 @@ import numpy as np
 
 from assetgen.collision import write_collision
 from assetgen.module_writer import EXPORTERS, ExportContext, insertion_travel
+from assetgen.timing import step
 
 NEEDS_COLLISION = {"mjcf", "usd"}
 USD_FILE = "peg_in_hole.usda"
@@ -20,6 +21,11 @@ def _collision(ctx: ExportContext) -> None:
 
 
 def _usd(ctx: ExportContext) -> None:
+    with step(ctx.times, "usd"):
+        _write_usd(ctx)
+
+
+def _write_usd(ctx: ExportContext) -> None:
     from assetgen.frames import Frame
     from assetgen.usd_export import usda_text
 
@@ -39,6 +45,11 @@ def _usd(ctx: ExportContext) -> None:
 
 
 def _mjcf(ctx: ExportContext) -> None:
+    with step(ctx.times, "mjcf"):
+        _write_mjcf(ctx)
+
+
+def _write_mjcf(ctx: ExportContext) -> None:
     from assetgen.frames import Frame
     from assetgen.mjcf_export import write_mjcf
 
