@@ -54,8 +54,8 @@ def _write_mjcf(ctx: ExportContext) -> None:
     from assetgen.mjcf_export import write_mjcf
 
     g, peg = ctx.geometry, ctx.record["peg"]
-    # write_mjcf reads the STL files back, checks each piece is closed and convex, and
-    # compiles the model once in MuJoCo before renaming the file into place.
+    # write_mjcf checks the peg and each piece is closed and convex, and compiles the model
+    # once in MuJoCo before renaming the file into place, all on the bytes just written.
     write_mjcf(
         ctx.folder / MJCF_FILE,
         peg_file="peg.stl",
@@ -67,6 +67,7 @@ def _write_mjcf(ctx: ExportContext) -> None:
         peg_com=np.array(peg["com_m"]),
         peg_inertia=np.array(peg["inertia_kg_m2"]),
         clearance=g.params.clearance,
+        written=ctx.data,
     )
     ctx.add_file(MJCF_FILE)
 

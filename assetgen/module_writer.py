@@ -52,6 +52,9 @@ class ExportContext:
     """module.json being assembled; exporters add their own sections."""
     hashes: dict[str, str] = field(default_factory=dict)
     """sha256 of every file written so far, by path relative to the folder."""
+    data: dict[str, bytes] = field(default_factory=dict)
+    """The bytes of every file written with `write`, by the same path: later checks use
+    exactly what is on disk without reading it back."""
     pieces: list | None = None
     """The convex collision pieces (module frame, m) once the `collision` step has run."""
     times: StepTimes | None = None
@@ -67,6 +70,7 @@ class ExportContext:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(data)
         self.hashes[name] = hashlib.sha256(data).hexdigest()
+        self.data[name] = data
         return data
 
     def add_file(self, name: str) -> None:
