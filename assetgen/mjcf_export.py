@@ -36,7 +36,7 @@ import numpy as np
 from assetgen.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.frames import Frame
 from assetgen.mesh import Mesh
-from assetgen.stl import parse_stl_mm
+from assetgen.stl import merge_vertices, parse_stl_triangles_mm
 
 MM = 0.001
 """Metres per STL unit (the STL files are millimetres)."""
@@ -177,12 +177,13 @@ def checked_meshes(data: Mapping[str, bytes], *, convex: bool = True) -> list[Me
     """The binary millimetre STL bytes in `data` (by name) as Meshes (metres), each checked to
     be a closed (and with `convex`, convex) solid, all at once; ValueError names a bad one."""
     names = list(data)
-    meshes = []
+    tris = []
     for name in names:
         try:
-            meshes.append(parse_stl_mm(data[name], name))
+            tris.append(parse_stl_triangles_mm(data[name], name))
         except ValueError as e:
             raise ValueError(f"{name}: corrupt STL: {e}") from None
+    meshes = merge_vertices(tris)
     check_closed_meshes(meshes, names, convex=convex)
     return meshes
 

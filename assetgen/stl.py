@@ -37,6 +37,32 @@ def parse_stl_mm(data: bytes, name: str = "STL") -> Mesh:
     return Mesh(vertices, faces.reshape(-1, 3).astype(np.int64))
 
 
+def merge_vertices(tris: list[np.ndarray]) -> list[Mesh]:
+    """Triangle soups (m_i, 3, 3) as Meshes, merging identical coordinates within each like
+    parse_stl_mm, with one sort for all of them (a module's ~30 pieces would otherwise pay
+    np.unique's fixed cost ~30 times). For checks: of coordinates that compare equal (0.0
+    and -0.0) either may be kept."""
+    counts = np.array([3 * len(t) for t in tris])
+    points = np.vstack([t.reshape(-1, 3) for t in tris]) if tris else np.zeros((0, 3))
+    owner = np.repeat(np.arange(len(tris)), counts)
+    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], owner))
+    p, o = points[order], owner[order]
+    new = np.ones(len(p), bool)
+    new[1:] = (o[1:] != o[:-1]) | np.any(p[1:] != p[:-1], axis=1)
+    index = np.empty(len(p), np.int64)
+    index[order] = np.cumsum(new) - 1  # global vertex index of every stored corner
+    unique, unique_owner = p[new], o[new]
+    first = np.searchsorted(unique_owner, np.arange(len(tris)))
+    last = np.searchsorted(unique_owner, np.arange(len(tris)), side="right")
+    bounds = np.concatenate([[0], np.cumsum(counts)])
+    return [
+        Mesh(
+            unique[first[i] : last[i]], (index[bounds[i] : bounds[i + 1]] - first[i]).reshape(-1, 3)
+        )
+        for i in range(len(tris))
+    ]
+
+
 def read_stl_triangles_mm(path: Path) -> np.ndarray:
     """Triangles (m, 3, 3) in metres from a binary STL in millimetres, as stored (no merging).
 
