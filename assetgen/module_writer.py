@@ -59,6 +59,8 @@ class ExportContext:
     """The convex collision pieces (module frame, m) once the `collision` step has run."""
     times: StepTimes | None = None
     """Where steps add their wall times (see assetgen.timing), or None: not timed."""
+    _dirs: set[str] = field(default_factory=set)
+    """Sub-folders of `folder` made so far."""
 
     def write(self, name: str, data: bytes) -> bytes:
         """Write `data` to folder/name and record its hash; return the bytes written.
@@ -66,9 +68,12 @@ class ExportContext:
         Checks parse these returned bytes, exactly what is on disk, rather than reading the
         file again: on this kind of file system an open costs as much as a whole piece.
         """
-        path = self.folder / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
+        parent = os.path.dirname(name)
+        if parent and parent not in self._dirs:  # one mkdir per folder, not one per file
+            os.makedirs(self.folder / parent, exist_ok=True)
+            self._dirs.add(parent)
+        with open(self.folder / name, "wb") as f:
+            f.write(data)
         self.hashes[name] = hashlib.sha256(data).hexdigest()
         self.data[name] = data
         return data
