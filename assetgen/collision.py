@@ -17,7 +17,7 @@ from assetgen.decomposition import exact_pieces
 from assetgen.geometry import ModuleGeometry
 from assetgen.mesh import Mesh, cross3
 from assetgen.module_writer import ExportContext
-from assetgen.stl import parse_stl_triangles_mm, stl_bytes
+from assetgen.stl import parse_stl_triangles_mm, stl_bytes_many
 from assetgen.timing import step
 
 DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
@@ -70,8 +70,8 @@ def write_collision(ctx: ExportContext, travel: float, method: str = "exact") ->
     names = [piece_name(i) for i in range(len(pieces))]
     with step(ctx.times, "collision: write"):
         tris = [
-            parse_stl_triangles_mm(ctx.write(n, stl_bytes(m)), n)
-            for n, m in zip(names, pieces, strict=True)
+            parse_stl_triangles_mm(ctx.write(n, data), n)
+            for n, data in zip(names, stl_bytes_many(pieces), strict=True)
         ]
     back = [Mesh(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in tris]
     with step(ctx.times, "collision: FCL re-check"):

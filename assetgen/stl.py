@@ -24,6 +24,27 @@ def stl_bytes(mesh: Mesh, scale: float = 1000.0) -> bytes:
     return HEADER + np.uint32(len(tri)).tobytes() + rec.tobytes()
 
 
+def stl_bytes_many(meshes: list[Mesh], scale: float = 1000.0) -> list[bytes]:
+    """stl_bytes of each mesh, byte for byte, computed for all of them at once: a module's
+    ~30 small pieces would otherwise pay numpy's per-call cost ~30 times."""
+    if not meshes:
+        return []
+    tri = np.vstack([m.vertices[m.faces] for m in meshes]) * scale
+    normal = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    rec = np.zeros(len(tri), dtype=_RECORD)
+    rec["normal"] = normal
+    rec["v"] = tri
+    body = rec.tobytes()
+    out, start = [], 0
+    for m in meshes:
+        end = start + len(m.faces)
+        out.append(HEADER + np.uint32(len(m.faces)).tobytes() + body[50 * start : 50 * end])
+        start = end
+    return out
+
+
 def read_stl_mm(path: Path) -> Mesh:
     """Read a binary STL in millimetres back as a Mesh in metres (see parse_stl_mm)."""
     return parse_stl_mm(Path(path).read_bytes(), str(path))
