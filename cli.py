@@ -243,8 +243,17 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return _err(f"unknown benchmark {args.what!r}; valid: assets")
     table = Table(title=f"bench {args.what}", show_header=False)
     for k, v in result.items():
-        table.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
+        if not isinstance(v, dict):
+            table.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
     console.print(table)
+    steps = result.get("step_ms", {})
+    if steps:
+        t = Table(title="per module, each step (ms, one worker's wall time)")
+        t.add_column("step")
+        t.add_column("ms", justify="right")
+        for k, v in steps.items():
+            t.add_row(k, f"{v:.2f}")
+        console.print(t)
     if args.json:
         print(json.dumps(result))
     return 0

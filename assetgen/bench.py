@@ -17,7 +17,9 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
 
     The folder is made under `where` (default: the current directory, where datasets go;
     /tmp can sit on a slower file system and the pipeline writes ~40 small files a module).
-    Returns modules_per_s, seconds and cached_rerun_s among others.
+    Returns modules_per_s, seconds and cached_rerun_s among others, and step_ms: the
+    wall milliseconds per module of each pipeline step (summed over the workers, so they add
+    up to about workers x seconds / modules), which shows which step a regression is in.
     """
     workers = workers or os.cpu_count() or 1
     spec = DatasetSpec("bench", 0, n, SamplerConfig(), available_formats())
@@ -29,6 +31,8 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
         t0 = time.perf_counter()
         generate(root, spec, workers=workers, progress=False)
         cached = time.perf_counter() - t0
+    done = max(s.generated + len(s.failures), 1)
+    step_ms = {k: 1e3 * v / done for k, v in s.step_seconds.items()}
     return {
         "modules": n,
         "workers": workers,
@@ -37,4 +41,6 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
         "modules_per_s": n / first,
         "cached_rerun_s": cached,
         "formats": ",".join(spec.formats),
+        "step_ms": step_ms,
+        "step_ms_total": sum(step_ms.values()),
     }

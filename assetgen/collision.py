@@ -17,7 +17,8 @@ from assetgen.decomposition import exact_pieces
 from assetgen.geometry import ModuleGeometry
 from assetgen.mesh import Mesh, cross3
 from assetgen.module_writer import ExportContext
-from assetgen.stl import parse_stl_triangles_mm, stl_bytes
+from assetgen.stl import parse_stl_triangles_mm, stl_bytes_many
+from assetgen.timing import step
 
 DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
     "exact": exact_pieces,
@@ -63,15 +64,18 @@ def write_collision(ctx: ExportContext, travel: float, method: str = "exact") ->
     if method not in DECOMPOSERS:
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
     geom = ctx.geometry
-    pieces = DECOMPOSERS[method](geom)
+    with step(ctx.times, "collision: decompose"):
+        pieces = DECOMPOSERS[method](geom)
     ctx.pieces = pieces
     names = [piece_name(i) for i in range(len(pieces))]
-    tris = [
-        parse_stl_triangles_mm(ctx.write(n, stl_bytes(m)), n)
-        for n, m in zip(names, pieces, strict=True)
-    ]
+    with step(ctx.times, "collision: write"):
+        tris = [
+            parse_stl_triangles_mm(ctx.write(n, data), n)
+            for n, data in zip(names, stl_bytes_many(pieces), strict=True)
+        ]
     back = [Mesh(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in tris]
-    gaps = check_pieces(back, geom.peg, geom, travel)
+    with step(ctx.times, "collision: FCL re-check"):
+        gaps = check_pieces(back, geom.peg, geom, travel)
     volume = float(sum(_volume(m) for m in pieces))
     record = {
         "method": method,

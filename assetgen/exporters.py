@@ -9,6 +9,7 @@ import numpy as np
 
 from assetgen.collision import write_collision
 from assetgen.module_writer import EXPORTERS, ExportContext, insertion_travel
+from assetgen.timing import step
 
 NEEDS_COLLISION = {"mjcf", "usd"}
 USD_FILE = "peg_in_hole.usda"
@@ -20,6 +21,11 @@ def _collision(ctx: ExportContext) -> None:
 
 
 def _usd(ctx: ExportContext) -> None:
+    with step(ctx.times, "usd"):
+        _write_usd(ctx)
+
+
+def _write_usd(ctx: ExportContext) -> None:
     from assetgen.frames import Frame
     from assetgen.usd_export import usda_text
 
@@ -39,12 +45,17 @@ def _usd(ctx: ExportContext) -> None:
 
 
 def _mjcf(ctx: ExportContext) -> None:
+    with step(ctx.times, "mjcf"):
+        _write_mjcf(ctx)
+
+
+def _write_mjcf(ctx: ExportContext) -> None:
     from assetgen.frames import Frame
     from assetgen.mjcf_export import write_mjcf
 
     g, peg = ctx.geometry, ctx.record["peg"]
-    # write_mjcf reads the STL files back, checks each piece is closed and convex, and
-    # compiles the model once in MuJoCo before renaming the file into place.
+    # write_mjcf checks the peg and each piece is closed and convex, and compiles the model
+    # once in MuJoCo before renaming the file into place, all on the bytes just written.
     write_mjcf(
         ctx.folder / MJCF_FILE,
         peg_file="peg.stl",
@@ -56,6 +67,7 @@ def _mjcf(ctx: ExportContext) -> None:
         peg_com=np.array(peg["com_m"]),
         peg_inertia=np.array(peg["inertia_kg_m2"]),
         clearance=g.params.clearance,
+        written=ctx.data,
     )
     ctx.add_file(MJCF_FILE)
 

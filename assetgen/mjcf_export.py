@@ -26,22 +26,21 @@ measured with `assetgen.mjcf_physics` (see ContactConfig and tests/test_mjcf_exp
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
-import trimesh
 
+from assetgen.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.frames import Frame
 from assetgen.mesh import Mesh
-from assetgen.stl import parse_stl_mm
+from assetgen.stl import merge_vertices, parse_stl_triangles_mm
 
 MM = 0.001
 """Metres per STL unit (the STL files are millimetres)."""
-CONVEX_TOLERANCE = 1e-6
-"""A vertex may lie this far outside a face's plane (m) and the mesh still count as convex:
-float32 millimetre STL rounding is ~1e-8 m on a 15 cm plate, a real dent is far larger."""
+__all__ = ["CONVEX_TOLERANCE", "ContactConfig", "read_checked_mesh", "write_mjcf"]
 CLEARANCE_NUMERIC = "clearance"
 """Name of the `<numeric>` custom field holding the clearance (m)."""
 PEG_BODY = "peg"
@@ -170,57 +169,32 @@ def read_checked_mesh(path: Path, name: str, *, convex: bool = True) -> Mesh:
     missing, unreadable or corrupt, not watertight, inconsistently wound, has no positive
     volume, or (with `convex`) is not convex within CONVEX_TOLERANCE.
     """
+    (mesh,) = checked_meshes({name: _read(path, name)}, convex=convex)
+    return mesh
+
+
+def checked_meshes(data: Mapping[str, bytes], *, convex: bool = True) -> list[Mesh]:
+    """The binary millimetre STL bytes in `data` (by name) as Meshes (metres), each checked to
+    be a closed (and with `convex`, convex) solid, all at once; ValueError names a bad one."""
+    names = list(data)
+    tris = []
+    for name in names:
+        try:
+            tris.append(parse_stl_triangles_mm(data[name], name))
+        except ValueError as e:
+            raise ValueError(f"{name}: corrupt STL: {e}") from None
+    meshes = merge_vertices(tris)
+    check_closed_meshes(meshes, names, convex=convex)
+    return meshes
+
+
+def _read(path: Path, name: str) -> bytes:
     try:
-        data = Path(path).read_bytes()
+        return Path(path).read_bytes()
     except FileNotFoundError:
         raise ValueError(f"{name}: file missing (looked for {path})") from None
     except OSError as e:
         raise ValueError(f"{name}: cannot be read ({e})") from None
-    try:
-        mesh = parse_stl_mm(data, name)
-    except ValueError as e:
-        raise ValueError(f"{name}: corrupt STL: {e}") from None
-    if len(mesh.faces) < 4:
-        raise ValueError(f"{name}: {len(mesh.faces)} triangles cannot enclose a volume")
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    if not tm.is_watertight:
-        raise ValueError(
-            f"{name}: not watertight (some edges do not join exactly two triangles); "
-            "MuJoCo needs closed meshes"
-        )
-    if not tm.is_winding_consistent:
-        raise ValueError(f"{name}: triangles are wound inconsistently (flipped faces)")
-    volume = float(tm.volume)
-    if not volume > 0:
-        raise ValueError(
-            f"{name}: volume {volume:.3e} m^3 is not positive (faces point inwards, or the "
-            "mesh is flat)"
-        )
-    if convex:
-        excess, face = _convexity_excess(mesh)
-        if excess > CONVEX_TOLERANCE:
-            raise ValueError(
-                f"{name}: not convex: vertex {face} lies {excess * 1e3:.4f} mm inside the "
-                "mesh's convex hull; MuJoCo would collide it as its convex hull, filling "
-                "the dent (decompose it into convex pieces)"
-            )
-    return mesh
-
-
-def _convexity_excess(mesh: Mesh) -> tuple[float, int]:
-    """How deep (m) the deepest vertex lies inside the mesh's convex hull, and its index.
-
-    0 for a convex mesh: every vertex is on its hull. Judged against qhull's hull (whose
-    facets are merged robustly) rather than against each triangle's own plane: the planes of
-    sliver triangles, which exact convex pieces can have, are ill-determined in float32.
-    """
-    from scipy.spatial import ConvexHull
-
-    hull = ConvexHull(mesh.vertices)
-    # equations: n . x + d <= 0 inside; on the hull the largest value over facets is ~0.
-    height = (mesh.vertices @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
-    k = int(np.argmin(height))
-    return float(-height[k]), k
 
 
 def _check_frame(frame: Frame, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -374,6 +348,7 @@ def write_mjcf(
     peg_inertia: np.ndarray,
     clearance: float,
     contact: ContactConfig = ContactConfig(),
+    written: Mapping[str, bytes] | None = None,
 ) -> None:
     """Write the module's MJCF to `path` (atomically) after checking every input.
 
@@ -386,6 +361,9 @@ def write_mjcf(
                   COM, axes of the peg frame.
     clearance   : m, stored in the file for the physics checks.
     contact     : physics and contact settings (see ContactConfig).
+    written     : the bytes of mesh files just written, by name (the module writer's): they
+                  are checked and compiled instead of reading the files back, which costs
+                  as much as the checks; files not in it are read.
 
     Raises ValueError naming the file or value and the problem (missing or corrupt STL, not
     watertight, not convex, bad frame or mass properties, or a model MuJoCo refuses); nothing
@@ -400,11 +378,14 @@ def write_mjcf(
     if len(set(piece_files)) != len(piece_files):
         raise ValueError(f"piece_files lists a file twice: {piece_files}")
     folder = path.parent
+    written = written or {}
+    data: dict[str, bytes] = {}
     for name in [peg_file, *piece_files]:
         if Path(name).is_absolute():
             raise ValueError(f"{name}: must be relative to the MJCF's folder {folder}")
-        # every mesh is a convex solid: MuJoCo collides a mesh as its convex hull
-        read_checked_mesh(folder / name, name, convex=True)
+        data[name] = written[name] if name in written else _read(folder / name, name)
+    # every mesh is a convex solid: MuJoCo collides a mesh as its convex hull
+    checked_meshes(data, convex=True)
     text = mjcf_text(
         peg_file=peg_file,
         piece_files=piece_files,
@@ -423,7 +404,8 @@ def write_mjcf(
     try:
         tmp.write_text(text, encoding="utf-8")
         try:
-            model = mujoco.MjModel.from_xml_path(str(tmp))
+            # Compiled from the checked bytes (the files hold the same): no file is read again.
+            model = mujoco.MjModel.from_xml_string(text, data)
         except ValueError as e:
             raise ValueError(f"{path.name}: MuJoCo refuses the model: {e}") from None
         _check_compiled(model, peg_pose)

@@ -25,6 +25,7 @@ from assetgen.params import ModuleParams, ParamError
 from assetgen.sampler import SamplerConfig, sample_params
 from assetgen.stl import parse_stl_mm, stl_bytes
 from assetgen.threemf import threemf_bytes
+from assetgen.timing import StepTimes, step
 
 PEG_MASS = 0.2
 """Peg mass, kg (paper)."""
@@ -51,8 +52,15 @@ class ExportContext:
     """module.json being assembled; exporters add their own sections."""
     hashes: dict[str, str] = field(default_factory=dict)
     """sha256 of every file written so far, by path relative to the folder."""
+    data: dict[str, bytes] = field(default_factory=dict)
+    """The bytes of every file written with `write`, by the same path: later checks use
+    exactly what is on disk without reading it back."""
     pieces: list | None = None
     """The convex collision pieces (module frame, m) once the `collision` step has run."""
+    times: StepTimes | None = None
+    """Where steps add their wall times (see assetgen.timing), or None: not timed."""
+    _dirs: set[str] = field(default_factory=set)
+    """Sub-folders of `folder` made so far."""
 
     def write(self, name: str, data: bytes) -> bytes:
         """Write `data` to folder/name and record its hash; return the bytes written.
@@ -60,10 +68,14 @@ class ExportContext:
         Checks parse these returned bytes, exactly what is on disk, rather than reading the
         file again: on this kind of file system an open costs as much as a whole piece.
         """
-        path = self.folder / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
+        parent = os.path.dirname(name)
+        if parent and parent not in self._dirs:  # one mkdir per folder, not one per file
+            os.makedirs(self.folder / parent, exist_ok=True)
+            self._dirs.add(parent)
+        with open(self.folder / name, "wb") as f:
+            f.write(data)
         self.hashes[name] = hashlib.sha256(data).hexdigest()
+        self.data[name] = data
         return data
 
     def add_file(self, name: str) -> None:
@@ -125,13 +137,15 @@ def generate_module(
     config: SamplerConfig,
     modules_dir: Path,
     formats: tuple[str, ...] = (),
+    times: StepTimes | None = None,
 ) -> dict:
     """Sample module `seed` under `config` and write it (see write_module)."""
     try:
-        params = sample_params(config, seed)
+        with step(times, "sample"):
+            params = sample_params(config, seed)
     except ParamError as e:
         raise ModuleFailure(seed, str(e)) from e
-    return write_module(params, seed, modules_dir, formats)
+    return write_module(params, seed, modules_dir, formats, times)
 
 
 def write_module(
@@ -139,11 +153,13 @@ def write_module(
     seed: int,
     modules_dir: Path,
     formats: tuple[str, ...] = (),
+    times: StepTimes | None = None,
 ) -> dict:
     """Build, check and write a module into `modules_dir/<id>/`; return its module.json.
 
     Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
-    check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF.
+    check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF. Each step
+    adds its wall time to `times` when given (see assetgen.timing).
     """
     from assetgen.exporters import with_dependencies
 
@@ -157,17 +173,22 @@ def write_module(
     if tmp.exists():
         shutil.rmtree(tmp)
     try:
-        geom = build_module(params)
+        with step(times, "build"):
+            geom = build_module(params)
         tmp.mkdir(parents=True)
-        ctx = ExportContext(tmp, geom, {})
-        checks = verify(
-            parse_stl_mm(ctx.write("peg.stl", stl_bytes(geom.peg))),
-            parse_stl_mm(ctx.write("module.stl", stl_bytes(geom.module))),
-            geom.design_pose,
-            params.clearance,
-            insertion_travel(geom),
-        )
-        ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, geom.module))
+        ctx = ExportContext(tmp, geom, {}, times=times)
+        with step(times, "stl+checks"):
+            checks = verify(
+                parse_stl_mm(ctx.write("peg.stl", stl_bytes(geom.peg))),
+                parse_stl_mm(ctx.write("module.stl", stl_bytes(geom.module))),
+                geom.design_pose,
+                params.clearance,
+                insertion_travel(geom),
+            )
+        with step(times, "3mf"):
+            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, geom.module))
+        with step(times, "mass"):
+            peg = peg_mass_properties(geom)
         ctx.record.update(
             {
                 "id": mid,
@@ -180,7 +201,7 @@ def write_module(
                     "bottom": geom.bottom.to_json(),
                     "design_pose": geom.design_pose.to_json(),
                 },
-                "peg": peg_mass_properties(geom),
+                "peg": peg,
                 "checks": checks,
             }
         )
@@ -188,8 +209,10 @@ def write_module(
             EXPORTERS[f](ctx)
         record = ctx.record
         record["files"] = dict(sorted(ctx.hashes.items()))
-        write_json(tmp / "module.json", _round(record))
-        os.replace(tmp, final)
+        with step(times, "module.json"):
+            write_json(tmp / "module.json", _round(record))
+        with step(times, "rename"):
+            os.replace(tmp, final)
         return record
     except (ParamError, CheckError, ValueError) as e:
         # ValueError: an exporter refused the generated geometry (e.g. a collision piece
