@@ -87,13 +87,13 @@ def add_train_parser(
 
 def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
+    import os
+
     import torch
 
     from rl.checkpoint import CheckpointError
     from rl.presets import get_setup
     from rl.runner import console, train
-
-    import os
 
     torch.set_num_threads(args.threads or max(1, (os.cpu_count() or 2) // 2))
     try:
