@@ -317,15 +317,24 @@ def generate(
     failures: list[ModuleFailure] = []
     step_seconds: StepTimes = {}
     if todo:
-        with manifest.open("a") as out:
-            for seed, line, reason, times in _run(root, spec, todo, workers, progress):
-                add_times(step_seconds, times)
-                if line is None:
-                    failures.append(ModuleFailure(seed, reason or "unknown"))
-                    continue
-                records[line["id"]] = line
-                out.write(json.dumps(line, sort_keys=True) + "\n")
-                out.flush()
+        try:
+            with manifest.open("a") as out:
+                for seed, line, reason, times in _run(root, spec, todo, workers, progress):
+                    add_times(step_seconds, times)
+                    if line is None:
+                        failures.append(ModuleFailure(seed, reason or "unknown"))
+                        continue
+                    records[line["id"]] = line
+                    out.write(json.dumps(line, sort_keys=True) + "\n")
+                    out.flush()
+        except OSError as e:
+            # a full disk, a vanished folder: the modules finished so far are complete and
+            # listed (or adopted from their folders next time); half-written ones were removed
+            raise DatasetError(
+                f"writing {root} stopped after {len(records)} of {len(wanted)} modules: {e}. "
+                "The finished modules are kept; fix the cause (e.g. free disk space) and run "
+                "the same command again to resume."
+            ) from e
     # Sorted and complete: the manifest of a finished dataset does not depend on run order.
     tmp = manifest.with_name("manifest.jsonl.tmp")
     tmp.write_text("".join(json.dumps(records[m], sort_keys=True) + "\n" for m in sorted(records)))

@@ -162,3 +162,33 @@ def test_bad_spec_file():
         DatasetSpec.from_json({"name": "x", "seed_start": 0, "count": 1, "colour": 1})
     with pytest.raises(DatasetError, match="at least 1 module"):
         DatasetSpec.from_json({"name": "x", "seed_start": 0, "count": 0})
+
+
+def test_full_disk_mid_run_keeps_finished_modules_and_resumes(tmp_path, tiny_dataset, monkeypatch):
+    """ENOSPC while writing the 4th module: a clear error, the 3 finished modules kept, no
+    half-written folder left; the next run completes to the uninterrupted content hash."""
+    import errno
+
+    from assetgen import module_writer
+
+    real = module_writer.write_json
+    calls = []
+
+    def filling_disk(path, data):
+        calls.append(path)
+        if len(calls) == 4:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        real(path, data)
+
+    monkeypatch.setattr(module_writer, "write_json", filling_disk)
+    out = tmp_path / "full"
+    with pytest.raises(DatasetError, match=r"stopped after 3 of 6 modules.*No space left"):
+        generate(out, _spec(TINY_SEEDS, name="full"), workers=1, progress=False)
+    assert len(list((out / "modules").glob("[0-9]*"))) == 3
+    assert not list((out / "modules").glob(".tmp-*"))
+    assert len((out / "manifest.jsonl").read_text().splitlines()) == 3
+    monkeypatch.setattr(module_writer, "write_json", real)
+    s = generate(out, _spec(TINY_SEEDS, name="full"), workers=1, progress=False)
+    assert s.cached == 3 and s.generated == 3 and not s.failures
+    info = json.loads((tiny_dataset / "dataset.json").read_text())
+    assert s.content_hash == info["summary"]["content_hash"]
