@@ -38,7 +38,11 @@ def topology(mesh: Mesh) -> dict:
     rev = directed[:, 1].astype(np.int64) * len(mesh.vertices) + directed[:, 0]
     unique_directed = len(np.unique(key)) == len(key)
     watertight = unique_directed and np.isin(rev, key).all()
-    undirected = np.unique(np.sort(directed, axis=1), axis=0)
+    # Edges as integer keys (lo * V + hi): np.unique of ints sorts them in the same
+    # (lo, hi) order as np.unique(..., axis=0) of the pairs, without its row machinery.
+    pair = np.sort(directed, axis=1).astype(np.int64)
+    edge_key = np.unique(pair[:, 0] * len(mesh.vertices) + pair[:, 1])
+    undirected = np.column_stack(np.divmod(edge_key, len(mesh.vertices)))
     used = np.unique(f)
     n_v, n_e, n_f = len(used), len(undirected), len(f)
     graph = coo_matrix(

@@ -56,7 +56,7 @@ def _write_mjcf(ctx: ExportContext) -> None:
     g, peg = ctx.geometry, ctx.record["peg"]
     # write_mjcf checks the peg and each piece is closed and convex, and compiles the model
     # once in MuJoCo before renaming the file into place, all on the bytes just written.
-    write_mjcf(
+    xml = write_mjcf(
         ctx.folder / MJCF_FILE,
         peg_file="peg.stl",
         piece_files=ctx.record["collision"]["pieces"],
@@ -69,7 +69,7 @@ def _write_mjcf(ctx: ExportContext) -> None:
         clearance=g.params.clearance,
         written=ctx.data,
     )
-    ctx.add_file(MJCF_FILE)
+    ctx.add_file(MJCF_FILE, xml)
 
 
 EXPORTERS["collision"] = _collision

@@ -349,7 +349,7 @@ def write_mjcf(
     clearance: float,
     contact: ContactConfig = ContactConfig(),
     written: Mapping[str, bytes] | None = None,
-) -> None:
+) -> bytes:
     """Write the module's MJCF to `path` (atomically) after checking every input.
 
     path        : the .xml to write; its folder holds the mesh files.
@@ -368,6 +368,7 @@ def write_mjcf(
     Raises ValueError naming the file or value and the problem (missing or corrupt STL, not
     watertight, not convex, bad frame or mass properties, or a model MuJoCo refuses); nothing
     is written then. The written file is compiled by MuJoCo before it replaces `path`.
+    Returns the bytes written (to hash without reading the file back).
     """
     path = Path(path)
     contact.validate()
@@ -402,7 +403,8 @@ def write_mjcf(
     # os.replace is atomic there, so a half-written XML never carries the final name
     tmp = folder / f".{path.stem}.{os.getpid()}.tmp.xml"
     try:
-        tmp.write_text(text, encoding="utf-8")
+        data_xml = text.encode("utf-8")
+        tmp.write_bytes(data_xml)
         try:
             # Compiled from the checked bytes (the files hold the same): no file is read again.
             model = mujoco.MjModel.from_xml_string(text, data)
@@ -412,6 +414,7 @@ def write_mjcf(
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+    return data_xml
 
 
 def _check_compiled(model: mujoco.MjModel, peg_pose: Frame) -> None:

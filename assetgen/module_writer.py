@@ -78,9 +78,12 @@ class ExportContext:
         self.data[name] = data
         return data
 
-    def add_file(self, name: str) -> None:
-        """Record the hash of a file an exporter wrote itself."""
-        self.hashes[name] = sha256(self.folder / name)
+    def add_file(self, name: str, data: bytes | None = None) -> None:
+        """Record the hash of a file an exporter wrote itself: of `data`, the bytes it wrote
+        (no second open of the file), or else read back from the folder."""
+        self.hashes[name] = (
+            hashlib.sha256(data).hexdigest() if data is not None else sha256(self.folder / name)
+        )
 
 
 Exporter = Callable[[ExportContext], None]
