@@ -14,14 +14,7 @@ _RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2
 
 def stl_bytes(mesh: Mesh, scale: float = 1000.0) -> bytes:
     """The mesh (metres) as binary STL bytes in millimetres (`scale` = mm per m)."""
-    tri = mesh.vertices[mesh.faces] * scale
-    normal = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(normal, axis=1, keepdims=True)
-    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
-    rec = np.zeros(len(tri), dtype=_RECORD)
-    rec["normal"] = normal
-    rec["v"] = tri
-    return HEADER + np.uint32(len(tri)).tobytes() + rec.tobytes()
+    return stl_bytes_many([mesh], scale)[0]
 
 
 def stl_bytes_many(meshes: list[Mesh], scale: float = 1000.0) -> list[bytes]:
