@@ -26,7 +26,7 @@ def bench_sim(
     config: TaskConfig = EVAL_CONFIG,
     nthread: int | None = None,
     shard_size: int = 8,
-    rounds: int = 4,
+    rounds: int = 10,
     seed: int = 0,
 ) -> dict:
     """Env steps/s with random actions at `envs` envs next to raw `mujoco.rollout` steps/s
