@@ -163,9 +163,9 @@ class PegInHoleVecEnv:
         k = len(idx)
         # static and dynamic friction are drawn as in the original; MuJoCo has one Coulomb
         # coefficient, which governs sliding (the regime of insertion): the dynamic one
-        _static = self.rng.uniform(*cfg.friction_range, k)
-        dynamic = self.rng.uniform(*cfg.friction_range, k)
-        restitution = self.rng.uniform(*cfg.restitution_range, k)
+        u = self.rng.random((3, k))  # static friction, dynamic friction, restitution
+        lo, hi = np.array([cfg.friction_range, cfg.friction_range, cfg.restitution_range]).T
+        _static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
         self.sim.set_contact(
             idx, dynamic, restitution_to_dampratio(restitution, cfg.physics.min_dampratio)
         )

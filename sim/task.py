@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from assetgen.mesh import cross3
 from sim.config import TaskConfig
 from sim.rotations import (
     matrix_to_quat,
@@ -136,7 +137,9 @@ def seat_distance(
     1 - cos would lose digits)."""
     d = pos - bottom_pos
     t = np.sqrt(np.einsum("ni,ni->n", d, d))
-    v = quat_mul(bottom_quat_conj, quat)[:, 1:]
+    # vector part of a q for a = bottom_quat_conj: a_w q_v + q_w a_v + a_v x q_v
+    a_v, q_v = bottom_quat_conj[:, 1:], quat[:, 1:]
+    v = bottom_quat_conj[:, :1] * q_v + quat[:, :1] * a_v + cross3(a_v, q_v)
     r = np.sqrt(8.0 * np.einsum("ni,ni->n", v, v))
     return cfg.dist_pos_weight * t + cfg.dist_rot_weight * r
 
