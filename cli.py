@@ -212,7 +212,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             envs=args.envs,
             seed=args.seed,
             device=None,
-            stochastic=False,
+            stochastic=args.stochastic,
             json=args.json,
             out=args.out,
         )
@@ -313,6 +313,11 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
     e.add_argument("--agent", choices=["scripted", "random"], help="a built-in agent")
     e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
+    e.add_argument(
+        "--stochastic",
+        action="store_true",
+        help="with --checkpoint: sample the policy's actions (default: its mean action)",
+    )
     e.add_argument("--dataset", default="test", help="spec name or dataset folder")
     e.add_argument("--attempts", type=int, default=10, help="episodes per module")
     e.add_argument("--seed", type=int, default=0)
