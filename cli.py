@@ -107,14 +107,13 @@ def _open_dataset(name: str):
 
 def cmd_physics(args: argparse.Namespace) -> int:
     from assetgen.dataset import DatasetError, resolve
-    from assetgen.physics_report import main as physics_main
+    from assetgen.physics_report import report
 
     try:
         root, _ = resolve(args.dataset)
     except DatasetError as e:
         return _err(str(e))
-    argv = [str(root)] + (["--limit", str(args.limit)] if args.limit else [])
-    return physics_main(argv + (["--json", str(args.json)] if args.json else []))
+    return report(root, args.limit, args.json)
 
 
 def cmd_check(args: argparse.Namespace) -> int:

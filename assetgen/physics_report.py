@@ -122,8 +122,6 @@ def failures(figures: dict[str, float]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from assetgen.dataset import Dataset
-
     ap = argparse.ArgumentParser(
         prog="python -m assetgen.physics_report",
         description=__doc__,
@@ -133,8 +131,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=None, help="first N modules only")
     ap.add_argument("--json", type=Path, default=None, help="write per-module figures here")
     args = ap.parse_args(argv)
-    ds = Dataset(args.dataset)
-    ids = list(ds.ids)[: args.limit]
+    return report(args.dataset, args.limit, args.json)
+
+
+def report(root: Path, limit: int | None = None, json_out: Path | None = None) -> int:
+    """Check the first `limit` (default: all) modules of the dataset at `root`, print the
+    worst figures and the failing modules, optionally write per-module figures to
+    `json_out`; exit code 0 when every module passes, else 1."""
+    from assetgen.dataset import Dataset
+
+    ds = Dataset(root)
+    ids = list(ds.ids)[:limit]
     rows: dict[str, dict[str, float]] = {}
     failed: dict[str, list[str]] = {}
     for i, mid in enumerate(ids, 1):
@@ -157,8 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     for mid, bad in failed.items():
         print(f"FAIL {mid}: " + "; ".join(bad))
     print(f"{len(ids) - len(failed)}/{len(ids)} modules pass")
-    if args.json:
-        args.json.write_text(json.dumps({"modules": rows, "failed": failed}, indent=1))
+    if json_out:
+        Path(json_out).write_text(json.dumps({"modules": rows, "failed": failed}, indent=1))
     return 1 if failed else 0
 
 
