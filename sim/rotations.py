@@ -57,24 +57,6 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     return q.reshape(*r.shape[:-2], 4)
 
 
-def axis_angle_to_matrix(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """(..., 3) axes (any length > 0) and (...) angles in radians -> (..., 3, 3) (Rodrigues)."""
-    axis = np.asarray(axis, dtype=float)
-    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
-    angle = np.asarray(angle, dtype=float)[..., None, None]
-    k = skew(axis)
-    eye = np.broadcast_to(np.eye(3), k.shape)
-    return eye + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
-
-
-def rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
-    """(..., 3) rotation vectors (axis * angle) -> (..., 3, 3); zero vectors give identity."""
-    v = np.asarray(v, dtype=float)
-    angle = np.linalg.norm(v, axis=-1)
-    axis = np.where(angle[..., None] > 1e-12, v, np.array([0.0, 0.0, 1.0]))
-    return axis_angle_to_matrix(axis, angle)
-
-
 def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
     """(..., 3, 3) -> (..., 3) rotation vectors, angle in [0, pi] (via quaternions: stable)."""
     q = matrix_to_quat(r)
@@ -82,15 +64,6 @@ def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
     angle = 2.0 * np.arctan2(s, q[..., 0])
     scale = np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)
     return q[..., 1:] * scale[..., None]
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """(..., 3) -> (..., 3, 3) cross-product matrices."""
-    x, y, z = np.moveaxis(np.asarray(v, dtype=float), -1, 0)
-    o = np.zeros_like(x)
-    return np.stack(
-        [np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], -2
-    )
 
 
 def random_axes(rng: np.random.Generator, n: int) -> np.ndarray:

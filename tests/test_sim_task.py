@@ -12,7 +12,7 @@ from sim.rotations import (
     matrix_to_rotvec,
     quat_to_matrix,
     random_axes,
-    rotvec_to_matrix,
+    rotvec_to_quat,
 )
 
 
@@ -94,7 +94,7 @@ def test_spawn_stays_in_its_ranges() -> None:
     yaw = np.zeros((n, 3))
     yaw[:, 2] = rng.uniform(-np.pi, np.pi, n)
     entrance = T.pose(np.zeros((n, 3)), np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)))
-    entrance[:, :3, :3] = rotvec_to_matrix(tilt) @ rotvec_to_matrix(yaw)
+    entrance[:, :3, :3] = quat_to_matrix(rotvec_to_quat(tilt)) @ quat_to_matrix(rotvec_to_quat(yaw))
     entrance[:, :2, 3] = rng.uniform(-0.025, 0.025, (n, 2))
     verts = np.tile(random_axes(rng, 12) * 0.01, (n, 1, 1))
     for scale in (0.3, 1.0):
