@@ -100,6 +100,7 @@ class BatchSim:
         task: TaskConfig,
         nthread: int | None = None,
         shard_size: int = 8,
+        spare_assets: list[ModuleAsset] | None = None,
     ) -> None:
         self.task = task
         self.num_envs = n = len(env_assets)
@@ -120,16 +121,20 @@ class BatchSim:
                 pad_geoms=pad,
             )
 
+        if spare_assets and k != 1:
+            raise ValueError("spare modules (set_module) need one model per env: shard_size=1")
+        self.pool: dict[str, mujoco.MjModel] = {}
+        """Module id -> its model, for every module given (one model per env only)."""
         if k == 1:
             # one model per module, copied per env: friction and restitution are randomised
             # per env, in the model
-            built: dict[str, mujoco.MjModel] = {}
-            for a in env_assets:
+            built = self.pool
+            for a in list(env_assets) + list(spare_assets or ()):
                 if a.id not in built:
                     built[a.id] = build([a])
             self.models = [copy.copy(built[g[0].id]) for g in groups]
             distinct = list(built.values())
-            group_of = {a.id: [a] for a in env_assets}
+            group_of = {a.id: [a] for a in list(env_assets) + list(spare_assets or ())}
             key_of = {id(m): mid for mid, m in built.items()}
         else:
             self.models = [build(g) for g in groups]
@@ -238,6 +243,20 @@ class BatchSim:
 
     def _peg_refs(self) -> list[tuple[int, int]]:
         return list(zip(self.shard_of.tolist(), self.peg_geom.tolist(), strict=True))
+
+    def set_module(self, e: int, module_id: str) -> None:
+        """Put env `e` on module `module_id` (one given at construction; one model per env).
+
+        The env gets its own copy of the module's model (friction and restitution are the
+        env's), so two envs may share a module. Its state (same sizes in every model) is
+        kept: place the peg with `set_pose` and set its contact with `set_contact` next."""
+        if self.shard_size != 1:
+            raise ValueError("set_module needs one model per env (shard_size=1)")
+        if module_id not in self.pool:
+            raise ValueError(f"module {module_id!r} was not given to this BatchSim")
+        m = copy.copy(self.pool[module_id])
+        self.models[e] = m
+        self.peg_geom[e] = m.geom("peg").id
 
     # ------------------------------------------------------------------ stepping
 

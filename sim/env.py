@@ -53,7 +53,13 @@ def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
 
 
 class PegInHoleVecEnv:
-    """`num_envs` peg-in-hole environments over the modules of a dataset (see module doc)."""
+    """`num_envs` peg-in-hole environments over the modules of a dataset (see module doc).
+
+    Env i gets module i while there are enough modules (beyond that, seeded rounds). With
+    `rotate_modules` and fewer envs than modules, every episode start hands the env's
+    module back to a queue and takes the next one, so a small batch trains on the whole
+    dataset (one model per env then; `info["module"]` names the module of each episode).
+    """
 
     obs_dim = T.OBS_DIM
     act_dim = T.ACT_DIM
@@ -68,6 +74,7 @@ class PegInHoleVecEnv:
         assignment_seed: int = 0,
         nthread: int | None = None,
         shard_size: int = 8,
+        rotate_modules: bool = False,
     ) -> None:
         self.cfg = (config or TaskConfig()).validate()
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
@@ -80,26 +87,47 @@ class PegInHoleVecEnv:
         self.module_ids = [m.id for m in modules]
         self.env_module = assign_modules(len(modules), self.num_envs, assignment_seed)
         assets = [modules[k] for k in self.env_module]
-        self.sim = BatchSim(assets, self.cfg, nthread, shard_size)
+        self.rotate_modules = rotate_modules and self.num_envs < len(modules)
+        self._queue: list[int] = []
+        """Modules waiting for an env (rotation): a finished episode's module goes to the
+        back, its env takes the front one, so all modules take turns evenly."""
+        spare = None
+        if self.rotate_modules:
+            shard_size = 1  # an env changes model at its resets
+            rest = np.setdiff1d(np.arange(len(modules)), self.env_module)
+            self._queue = np.random.default_rng(assignment_seed).permutation(rest).tolist()
+            spare = [modules[k] for k in self._queue]
+        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt
 
-        # per-env constants
-        self.entrance = np.stack([a.entrance for a in assets])
-        self.bottom = np.stack([a.bottom for a in assets])
-        self.entrance_inv = T.inverse(self.entrance)
-        self.bottom_inv = T.inverse(self.bottom)
-        self._frames = T.ObsFrames.of(self.entrance, self.bottom)
-        self._entrance_quat = matrix_to_quat(self.entrance[:, :3, :3])
-        nv = max(len(a.peg.vertices) for a in assets)
+        # per-module constants (of every module when rotating, else of the envs' modules),
+        # indexed per env by _use_modules
+        known = np.arange(len(modules)) if self.rotate_modules else np.unique(self.env_module)
+        self._mod_row = np.full(len(modules), -1)
+        self._mod_row[known] = np.arange(len(known))
+        m_assets = [modules[k] for k in known]
+        entrance = np.stack([a.entrance for a in m_assets])
+        bottom = np.stack([a.bottom for a in m_assets])
+        self._mod_frames = T.ObsFrames.of(entrance, bottom)
+        self._mod_entrance_quat = matrix_to_quat(entrance[:, :3, :3])
+        nv = max(len(a.peg.vertices) for a in m_assets)
         # vertices padded to a common count by repeating the first (same min/any results)
-        verts = [a.peg.vertices for a in assets]
-        self.peg_vertices = np.stack(
+        verts = [a.peg.vertices for a in m_assets]
+        peg_vertices = np.stack(
             [np.concatenate([v, np.repeat(v[:1], nv - len(v), 0)]) for v in verts]
         )
-        self.peg_reach = np.linalg.norm(self.peg_vertices, axis=2).max(axis=1)
         # a point below the surface within this distance of the hole axis is in the hole
-        radius = [np.linalg.norm(a.peg.vertices[:, :2], axis=1).max() for a in assets]
-        self.hole_radius = np.array(radius) + np.array([a.clearance for a in assets]) + 0.001
+        radius = [np.linalg.norm(a.peg.vertices[:, :2], axis=1).max() for a in m_assets]
+        self._mod = {
+            "entrance": entrance,
+            "bottom": bottom,
+            "entrance_inv": T.inverse(entrance),
+            "bottom_inv": T.inverse(bottom),
+            "peg_vertices": peg_vertices,
+            "peg_reach": np.linalg.norm(peg_vertices, axis=2).max(axis=1),
+            "hole_radius": np.array(radius) + np.array([a.clearance for a in m_assets]) + 0.001,
+        }
+        self._use_modules()
 
         n = self.num_envs
         self.global_step = 0
@@ -117,6 +145,28 @@ class PegInHoleVecEnv:
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
 
     # ------------------------------------------------------------------ helpers
+
+    def _use_modules(self) -> None:
+        """Per-env constants from the per-module ones, for the envs' current modules."""
+        rows = self._mod_row[self.env_module]
+        self.entrance = self._mod["entrance"][rows]
+        self.bottom = self._mod["bottom"][rows]
+        self.entrance_inv = self._mod["entrance_inv"][rows]
+        self.bottom_inv = self._mod["bottom_inv"][rows]
+        self.peg_vertices = self._mod["peg_vertices"][rows]
+        self.peg_reach = self._mod["peg_reach"][rows]
+        self.hole_radius = self._mod["hole_radius"][rows]
+        self._frames = self._mod_frames[rows]
+        self._entrance_quat = self._mod_entrance_quat[rows]
+
+    def _rotate(self, idx: np.ndarray) -> None:
+        """Envs idx hand their modules to the back of the queue and take the front ones."""
+        for e in idx.tolist():
+            self._queue.append(int(self.env_module[e]))
+            k = self._queue.pop(0)
+            self.env_module[e] = k
+            self.sim.set_module(e, self.module_ids[k])
+        self._use_modules()
 
     def curriculum_scale(self) -> float:
         """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
@@ -150,6 +200,8 @@ class PegInHoleVecEnv:
         """New episodes for envs idx: spawn, contact randomisation, bookkeeping."""
         if len(idx) == 0:
             return
+        if self.rotate_modules:
+            self._rotate(idx)
         cfg = self.cfg
         pos, quat = T.sample_spawn(
             self.rng,
@@ -289,6 +341,8 @@ class PegInHoleVecEnv:
             "rng": self.rng.bit_generator.state,
             "global_step": int(self.global_step),
             "unstable_count": int(self.unstable_count),
+            "env_module": self.env_module.copy(),
+            "queue": np.array(self._queue, dtype=np.int64),
         }
 
     def set_state(self, state: dict) -> None:
@@ -307,6 +361,22 @@ class PegInHoleVecEnv:
                     f"env state {k!r} has shape {np.shape(state[k])}, this env needs {shape}: "
                     "build the env with the same dataset, num_envs and shard_size"
                 )
+        if "env_module" not in state:
+            raise ValueError("env state without 'env_module': saved by an older version")
+        env_module = np.asarray(state["env_module"], dtype=np.int64)
+        if env_module.shape != self.env_module.shape or (
+            not self.rotate_modules and not np.array_equal(env_module, self.env_module)
+        ):
+            raise ValueError(
+                "env state 'env_module' differs from this env's module assignment: build the "
+                "env with the same dataset, num_envs, seed and module rotation"
+            )
+        if self.rotate_modules:
+            self._queue = np.asarray(state["queue"], dtype=np.int64).tolist()
+            for e, k in enumerate(env_module.tolist()):
+                self.sim.set_module(e, self.module_ids[k])
+            self.env_module[:] = env_module
+            self._use_modules()
         self.sim.shard_state[:] = state["shard_state"]
         self.sim.gather()
         self.sim.set_contact_params(np.asarray(state["friction"]), np.asarray(state["solref"]))
@@ -340,11 +410,14 @@ def make_train_env(
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
-    paper's 50 M); `seed` picks the module assignment beyond the dataset's size."""
+    paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
+    the modules in turns (a new module at every episode), so training sees all of them."""
     config = TaskConfig()
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
-    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, config, assignment_seed=seed)
+    return PegInHoleVecEnv(
+        _dataset_root(dataset), num_envs, config, assignment_seed=seed, rotate_modules=True
+    )
 
 
 def make_eval_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:

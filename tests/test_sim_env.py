@@ -243,25 +243,66 @@ def test_conforms_to_the_rl_contract() -> None:
         check_step(env, env.step(np.zeros((3, 6), dtype=np.float32)))
 
 
-def test_exact_resume_from_get_state() -> None:
+def _rotating_env(cfg, seed: int = 0) -> PegInHoleVecEnv:
+    """2 envs taking turns over the 4 modules."""
+    return PegInHoleVecEnv(
+        list(modules()), 2, cfg, nthread=1, rotate_modules=True, assignment_seed=seed
+    )
+
+
+def test_module_rotation_trains_on_every_module() -> None:
+    env = _rotating_env(replace(quiet(), max_steps=2), seed=1)
+    assert env.rotate_modules and env.sim.shard_size == 1
+    env.reset(seed=0)
+    seen = []
+    for _ in range(8):
+        *_, truncated, info = env.step(np.zeros((2, 6)))
+        seen += info["module"][truncated].tolist()
+        for e in range(2):  # the env's constants and model are its current module's
+            m = modules()[env.env_module[e]]
+            assert np.array_equal(env.entrance[e], m.entrance)
+            assert np.array_equal(env.peg_vertices[e, : len(m.peg.vertices)], m.peg.vertices)
+            peg = env.sim.models[e].geom("peg")
+            assert env.sim.peg_geom[e] == peg.id
+            assert env.sim.models[e].ngeom == env.sim.pool[m.id].ngeom
+    # 8 episodes over 4 modules: each module twice, two envs never on the same one
+    assert np.bincount(seen, minlength=4).tolist() == [2, 2, 2, 2]
+    assert len(set(env.env_module.tolist())) == 2
+    # without rotation (or with as many envs as modules) the assignment stays
+    fixed = PegInHoleVecEnv(list(modules()), 4, quiet(), nthread=1, rotate_modules=True)
+    assert not fixed.rotate_modules
+
+
+@pytest.mark.parametrize("rotate", [False, True])
+def test_exact_resume_from_get_state(rotate: bool) -> None:
     cfg = replace(quiet(), noise=True, max_steps=12, curriculum_steps=400)
     rng = np.random.default_rng(3)
-    acts = [rng.uniform(-1, 1, (3, 6)) for _ in range(30)]
-    env = make_env(3, cfg, shard_size=2)
+    n = 2 if rotate else 3
+    acts = [rng.uniform(-1, 1, (n, 6)) for _ in range(30)]
+
+    def build() -> PegInHoleVecEnv:
+        return _rotating_env(cfg) if rotate else make_env(3, cfg, shard_size=2)
+
+    env = build()
     env.reset(seed=4)
     for a in acts[:10]:
         env.step(a)
     state = env.get_state()
     state["rng"] = json.loads(json.dumps(state["rng"]))  # JSON-able, as checkpoints need
     after = [env.step(a) for a in acts[10:]]
-    other = make_env(3, cfg, shard_size=2)
+    other = build()
     other.reset(seed=99)  # a different history, overwritten by the state
+    for _ in range(13):  # and other modules, when rotating
+        other.step(acts[0])
     other.set_state(state)
     again = [other.step(a) for a in acts[10:]]
     for x, y in zip(after, again, strict=True):
         for u, v in zip(x[:4], y[:4], strict=True):
             assert np.array_equal(u, v)
         assert np.array_equal(x[4]["episode_return"], y[4]["episode_return"])
+        assert np.array_equal(x[4]["module"], y[4]["module"])
+    if rotate:
+        assert len({tuple(x[4]["module"]) for x in after}) > 1  # modules did change
     with pytest.raises(ValueError, match="shard_state"):
         make_env(2, cfg).set_state(state)
 
@@ -271,6 +312,7 @@ def test_factories_for_rl() -> None:
 
     env = make_train_env(str(sim_dataset()), 5, 1)
     assert env.num_envs == 5 and env.cfg.curriculum_steps == 50_000_000
+    assert make_train_env(str(sim_dataset()), 3, 1).rotate_modules  # fewer envs than modules
     assert make_eval_env(str(sim_dataset()), 4, 0).curriculum_scale() == 1.0
     with pytest.raises(ValueError, match="no dataset spec named"):
         make_eval_env("no-such-dataset", 1, 0)
