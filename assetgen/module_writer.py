@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from assetgen import GENERATOR_VERSION
+from assetgen import GENERATOR_VERSION, atomic_file
 from assetgen.checks import CheckError, verify
 from assetgen.geometry import ModuleGeometry, build_module
 from assetgen.params import ModuleParams, ParamError
@@ -130,9 +130,7 @@ def insertion_travel(geom: ModuleGeometry) -> float:
 
 
 def write_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
-    os.replace(tmp, path)
+    atomic_file.write_text(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
 def generate_module(

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -202,12 +201,9 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     }
     out = getattr(args, "out", None)  # absent when a caller builds args without --out
     if out is not None:
-        strict = {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in res.items()}
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(out.name + ".tmp")  # never a half-written file under the real name
-        tmp.write_text(json.dumps(strict))
-        tmp.replace(out)
+        from assetgen.atomic_file import strict_json, write_json
+
+        write_json(out, strict_json(res))
     if args.json:
         print(json.dumps(res))
         return 0

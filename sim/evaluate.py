@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -19,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from assetgen.atomic_file import strict_json, write_json
 from sim.assets import load_dataset
 from sim.config import EVAL_CONFIG, TaskConfig
 from sim.env import PegInHoleVecEnv
@@ -138,10 +138,6 @@ def evaluate(
     }
 
 
-def _no_nan(v: object) -> object:
-    return None if isinstance(v, float) and math.isnan(v) else v
-
-
 def eval_main(args: argparse.Namespace) -> int:
     """`assetgen eval`: args.agent, args.dataset, args.attempts, and optionally args.seed,
     args.envs, args.record, args.record_limit, args.json. Prints a short table (or JSON)."""
@@ -157,13 +153,10 @@ def eval_main(args: argparse.Namespace) -> int:
         record=getattr(args, "record", None),
         record_limit=getattr(args, "record_limit", None),
     )
-    strict = {k: _no_nan(v) for k, v in res.items()}  # strict JSON: no NaN
+    strict = strict_json(res)
     out = getattr(args, "out", None)
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(out.name + ".tmp")
-        tmp.write_text(json.dumps({"agent": args.agent, "dataset": str(root), **strict}))
-        tmp.replace(out)
+        write_json(out, {"agent": args.agent, "dataset": str(root), **strict})
     if getattr(args, "json", False):
         print(json.dumps(strict))
         return 0

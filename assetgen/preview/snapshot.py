@@ -14,9 +14,9 @@ frames and the (initially hidden) section cut.
 from __future__ import annotations
 
 import html
-import os
 from pathlib import Path
 
+from assetgen.atomic_file import write_text
 from assetgen.preview import nodes
 from assetgen.preview.episode import Episode, fit_notes, load_episode
 from assetgen.preview.scene import ModuleView, PreviewError, normalise_id, open_dataset
@@ -113,9 +113,4 @@ def write_html(
         stop_server(server)
     end = page.rindex("</body>")
     page = page[:end] + _panel(view, ep, notes) + page[end:]
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(page, encoding="utf-8")
-    os.replace(tmp, out)
-    return out
+    return write_text(out, page)
