@@ -420,9 +420,9 @@ def make_train_env(
     )
 
 
-def make_eval_env(dataset: str, num_envs: int, seed: int) -> PegInHoleVecEnv:
+def make_eval_env(dataset: str, num_envs: int | None, seed: int) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges). The
-    paper's protocol is one env per module: num_envs = the dataset's module count."""
+    paper's protocol is one env per module: num_envs None (or the dataset's module count)."""
     from sim.config import EVAL_CONFIG
 
     return PegInHoleVecEnv(_dataset_root(dataset), num_envs, EVAL_CONFIG, assignment_seed=seed)

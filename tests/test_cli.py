@@ -141,6 +141,20 @@ def test_eval_and_bench_sim(tiny_dataset, tmp_path):
     assert figures["env_steps_per_s"] > 0 and figures["rollout_steps_per_s"] > 0
 
 
+def test_train_then_evaluate_the_checkpoint_on_every_module(tiny_dataset, tmp_path):
+    run_dir = tmp_path / "run"
+    run("train", "--algo", "sac", "--preset", "pendulum", "--dataset", str(tiny_dataset),
+        "--envs", "2", "--steps", "400", "--out", str(run_dir), "--no-progress",
+        check=True)  # fmt: skip
+    args = ("eval", "--checkpoint", str(run_dir), "--dataset", str(tiny_dataset))
+    p = run(*args, "--attempts", "2", "--json", check=True)
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    # one env per module: 6 modules x 2 attempts, whatever the training batch (2 envs)
+    assert res["episodes"] == 12 and len(res["per_env_success_rate"]) == 6
+    p = run(*args, "--envs", "3")
+    assert p.returncode != 0 and "less than the dataset's 6 modules" in p.stdout + p.stderr
+
+
 def test_eval_missing_dataset(tmp_path):
     p = run("eval", "--agent", "scripted", "--dataset", str(tmp_path / "nope"))
     assert p.returncode != 0 and "is not a dataset" in p.stderr
