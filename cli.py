@@ -204,18 +204,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
             return _err("evaluating a checkpoint needs torch: pip install -e '.[rl]'")
         from sim import make_eval_env
 
-        def protocol_env(dataset: str, num_envs: int, seed: int):
-            # the protocol: one env per module, every module `attempts` times. Fewer envs
-            # would leave modules out, more would repeat some of them
-            env = make_eval_env(dataset, None, seed)
-            if num_envs < env.num_envs:
-                env.close()
-                raise ValueError(
-                    f"--envs {num_envs} is less than the dataset's {env.num_envs} modules: a "
-                    "checkpoint is evaluated with one env per module; raise --envs"
-                )
-            return env
-
         run_args = argparse.Namespace(
             run=args.checkpoint,
             dataset=args.dataset,
@@ -227,7 +215,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             json=args.json,
             out=args.out,
         )
-        return rl_eval_main(run_args, protocol_env)
+        return rl_eval_main(run_args, make_eval_env)
     if args.agent is None:
         return _err("give --agent scripted|random or --checkpoint RUN_DIR")
     try:

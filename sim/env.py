@@ -421,8 +421,15 @@ def make_train_env(
 
 
 def make_eval_env(dataset: str, num_envs: int | None, seed: int) -> PegInHoleVecEnv:
-    """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges). The
-    paper's protocol is one env per module: num_envs None (or the dataset's module count)."""
+    """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
+    paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
+    envs than modules would leave modules out (ValueError), more would repeat some."""
     from sim.config import EVAL_CONFIG
 
-    return PegInHoleVecEnv(_dataset_root(dataset), num_envs, EVAL_CONFIG, assignment_seed=seed)
+    modules = load_dataset(_dataset_root(dataset))
+    if num_envs is not None and num_envs < len(modules):
+        raise ValueError(
+            f"--envs {num_envs} is less than the dataset's {len(modules)} modules: a "
+            "checkpoint is evaluated with one env per module; raise --envs"
+        )
+    return PegInHoleVecEnv(modules, len(modules), EVAL_CONFIG, assignment_seed=seed)
