@@ -16,15 +16,22 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {"elu": nn.ELU, "relu": nn.ReLU, "tanh
 
 
 def mlp(
-    in_dim: int, hidden: tuple[int, ...], out_dim: int, activation: str = "elu"
+    in_dim: int,
+    hidden: tuple[int, ...],
+    out_dim: int,
+    activation: str = "elu",
+    layer_norm: bool = False,
 ) -> nn.Sequential:
-    """in_dim -> hidden... -> out_dim, `activation` (ACTIVATIONS) after every hidden layer."""
+    """in_dim -> hidden... -> out_dim, `activation` (ACTIVATIONS) after every hidden layer,
+    preceded by a LayerNorm when `layer_norm` (which bounds the hidden features whatever the
+    input's scale: the usual cure for diverging off-policy critics, Ball et al. 2023)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"unknown activation {activation!r}; valid: {sorted(ACTIVATIONS)}")
     layers: list[nn.Module] = []
     last = in_dim
     for h in hidden:
-        layers += [nn.Linear(last, h), ACTIVATIONS[activation]()]
+        norm = [nn.LayerNorm(h)] if layer_norm else []
+        layers += [nn.Linear(last, h), *norm, ACTIVATIONS[activation]()]
         last = h
     layers.append(nn.Linear(last, out_dim))
     return nn.Sequential(*layers)
@@ -139,10 +146,15 @@ class SquashedGaussianActor(nn.Module):
     """
 
     def __init__(
-        self, obs_dim: int, act_dim: int, hidden: tuple[int, ...], activation: str = "relu"
+        self,
+        obs_dim: int,
+        act_dim: int,
+        hidden: tuple[int, ...],
+        activation: str = "relu",
+        layer_norm: bool = False,
     ) -> None:
         super().__init__()
-        self.net = mlp(obs_dim, hidden, 2 * act_dim, activation)
+        self.net = mlp(obs_dim, hidden, 2 * act_dim, activation, layer_norm)
 
     def forward(
         self, obs: torch.Tensor, deterministic: bool = False
@@ -161,10 +173,15 @@ class QNetwork(nn.Module):
     """Q(s, a): obs (B, obs_dim), action (B, act_dim) -> (B,)."""
 
     def __init__(
-        self, obs_dim: int, act_dim: int, hidden: tuple[int, ...], activation: str = "relu"
+        self,
+        obs_dim: int,
+        act_dim: int,
+        hidden: tuple[int, ...],
+        activation: str = "relu",
+        layer_norm: bool = False,
     ) -> None:
         super().__init__()
-        self.net = mlp(obs_dim + act_dim, hidden, 1, activation)
+        self.net = mlp(obs_dim + act_dim, hidden, 1, activation, layer_norm)
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return self.net(torch.cat([obs, action], dim=-1)).squeeze(-1)

@@ -73,6 +73,8 @@ PRESETS: dict[str, dict[str, Setup]] = {
         "sac": Setup(
             SACConfig(
                 hidden=(256, 256),
+                layer_norm=True,
+                max_grad_norm=10.0,
                 learning_rate=3e-4,
                 gamma=0.99,
                 batch_size=512,

@@ -9,6 +9,7 @@ reports the mean losses since the last call.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +27,12 @@ class SACConfig:
     """Hidden layer widths of the actor and of each Q MLP."""
     activation: str = "relu"
     """Hidden-layer activation: relu (the usual SAC choice, cheapest on CPU), elu or tanh."""
+    layer_norm: bool = False
+    """LayerNorm before every hidden activation of the actor and the critics. It keeps the
+    critics from diverging on far-out observations (a peg that wandered metres away)."""
+    max_grad_norm: float | None = None
+    """Clip the gradient norm of the critics and of the actor to this (None: no clipping);
+    the norms before clipping are logged either way."""
     learning_rate: float = 8e-5
     """Adam learning rate of the actor, the critics and the temperature."""
     gamma: float = 0.997
@@ -61,6 +68,7 @@ class SACConfig:
             "gradient_steps >= 0": self.gradient_steps >= 0,
             "entropy_coef > 0": self.entropy_coef > 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
+            "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
         }
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
@@ -141,7 +149,16 @@ class ReplayBuffer:
 class SAC:
     """SAC agent with its replay buffer, for `num_envs` envs."""
 
-    log_keys = ("q_loss", "policy_loss", "entropy", "q_mean", "alpha", "buffer_size")
+    log_keys = (
+        "q_loss",
+        "policy_loss",
+        "entropy",
+        "q_mean",
+        "q_grad_norm",
+        "pi_grad_norm",
+        "alpha",
+        "buffer_size",
+    )
     """What `update` reports (the runner's log columns)."""
 
     def __init__(
@@ -155,10 +172,10 @@ class SAC:
         self.cfg = cfg.validate()
         self.device = torch.device(device)
         self.num_envs, self.act_dim = num_envs, act_dim
-        h, f = cfg.hidden, cfg.activation
-        self.actor = SquashedGaussianActor(obs_dim, act_dim, h, f).to(self.device)
-        self.q1 = QNetwork(obs_dim, act_dim, h, f).to(self.device)
-        self.q2 = QNetwork(obs_dim, act_dim, h, f).to(self.device)
+        h, f, ln = cfg.hidden, cfg.activation, cfg.layer_norm
+        self.actor = SquashedGaussianActor(obs_dim, act_dim, h, f, ln).to(self.device)
+        self.q1 = QNetwork(obs_dim, act_dim, h, f, ln).to(self.device)
+        self.q2 = QNetwork(obs_dim, act_dim, h, f, ln).to(self.device)
         self.q1_target, self.q2_target = copy.deepcopy(self.q1), copy.deepcopy(self.q2)
         for p in [*self.q1_target.parameters(), *self.q2_target.parameters()]:
             p.requires_grad_(False)
@@ -180,6 +197,7 @@ class SAC:
         self._obs: torch.Tensor | None = None
         self._action: torch.Tensor | None = None
         self._online_params = [*self.q1.parameters(), *self.q2.parameters()]
+        self._actor_params = list(self.actor.parameters())
         self._target_params = [*self.q1_target.parameters(), *self.q2_target.parameters()]
         self._sums: dict[str, torch.Tensor] = {}
         self._n_sums = 0
@@ -256,6 +274,7 @@ class SAC:
         check_finite("SAC critic", q_loss, q1=q1.mean(), target=y.mean())
         self.q_opt.zero_grad(set_to_none=True)
         q_loss.backward()
+        q_norm = self._clip(self._online_params)
         self.q_opt.step()
 
         # L_pi = E[alpha log pi(a|s) - min(Q1, Q2)(s, a)], a ~ pi(.|s) reparameterised;
@@ -267,6 +286,7 @@ class SAC:
         check_finite("SAC actor", pi_loss, log_pi=logp.mean(), q=q.mean())
         self.actor_opt.zero_grad(set_to_none=True)
         pi_loss.backward()
+        pi_norm = self._clip(self._actor_params)
         self.actor_opt.step()
         self._critics_grad(True)
 
@@ -285,9 +305,16 @@ class SAC:
             ("policy_loss", pi_loss),
             ("entropy", -logp.mean()),
             ("q_mean", q1.mean()),
+            ("q_grad_norm", q_norm),
+            ("pi_grad_norm", pi_norm),
         ):
             self._sums[k] = self._sums.get(k, 0.0) + v.detach()  # .item() once per iteration
         self._n_sums += 1
+
+    def _clip(self, params: list[torch.nn.Parameter]) -> torch.Tensor:
+        """The gradients' total norm, after scaling them to at most `max_grad_norm`."""
+        limit = self.cfg.max_grad_norm
+        return torch.nn.utils.clip_grad_norm_(params, math.inf if limit is None else limit)
 
     def _critics_grad(self, on: bool) -> None:
         for p in self._online_params:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from rl.nets import ActorCritic, RunningNorm, SquashedGaussianActor
+from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor
 from rl.ppo import PPO, PPOConfig, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
@@ -108,6 +108,21 @@ def test_log_probs() -> None:
     assert a.shape == (4, 2) and logp.shape == (4,) and (a.abs() < 1).all()
 
 
+def test_layer_norm_bounds_q_on_far_out_observations() -> None:
+    # With LayerNorm the last hidden features have norm <= sqrt(H) (unit variance, ReLU only
+    # shrinks), so |Q| <= ||w_last|| sqrt(H) + |b_last| for any input; without it Q grows
+    # linearly with the input's scale (a peg metres from its hole).
+    torch.manual_seed(0)
+    obs = torch.randn(64, 18) * 1e4
+    act = torch.rand(64, 6) * 2 - 1
+    q_ln = QNetwork(18, 6, (32, 32), layer_norm=True)
+    last = q_ln.net[-1]
+    bound = last.weight.norm() * math.sqrt(32) + last.bias.abs().sum()
+    with torch.no_grad():
+        assert q_ln(obs, act).abs().max() <= bound
+        assert QNetwork(18, 6, (32, 32))(obs, act).abs().max() > 10 * bound
+
+
 @pytest.mark.parametrize("algo", ["ppo", "sac", "random"])
 @pytest.mark.parametrize("stack", [1, 3])
 def test_smoke_train(algo: str, stack: int, tmp_path) -> None:
@@ -117,7 +132,8 @@ def test_smoke_train(algo: str, stack: int, tmp_path) -> None:
     cfg = {
         "ppo": PPOConfig(hidden=(16, 16), horizon=8, minibatch_size=32, epochs=2),
         "sac": SACConfig(hidden=(16, 16), batch_size=16, buffer_size=500, warmup_steps=32,
-                         gradient_steps=0.5, steps_per_iteration=8),
+                         gradient_steps=0.5, steps_per_iteration=8, layer_norm=stack > 1,
+                         max_grad_norm=1.0),
         "random": RandomConfig(steps_per_iteration=8),
     }[algo]  # fmt: skip
     env = ToyEnv(4, max_steps=10)
@@ -129,6 +145,7 @@ def test_smoke_train(algo: str, stack: int, tmp_path) -> None:
     assert len(lines) == 1 + 8
     if algo == "sac":
         assert r["metrics"]["q_loss"] > 0
+        assert r["metrics"]["q_grad_norm"] > 0 and r["metrics"]["pi_grad_norm"] > 0
 
 
 def test_random_agent_is_seeded() -> None:
