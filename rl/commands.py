@@ -253,12 +253,14 @@ def report_main(args: argparse.Namespace) -> int:
     from rl.report import ReportError, write_report
 
     try:
-        write_report(args.runs, args.baselines, args.out)
+        doc = write_report(args.runs, args.baselines, args.out)
     except ReportError as e:
         from rich.console import Console
 
         Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {e}")
         return 2
     print((args.out / "table.md").read_text(), end="")
+    for f in doc["skipped_baselines"]:
+        print(f"skipped {f}: not an evaluation file of `assetgen eval --out`")
     print(f"wrote {args.out}/learning_curves.png, time_to_success.png, table.md, report.json")
     return 0

@@ -133,6 +133,10 @@ def variant_name(algo: str, stack: int) -> str:
     return f"{base}-STACK" if stack == 10 else f"{base}-STACK{stack}"
 
 
+class NotAnEvalFileError(ReportError):
+    """A readable JSON object that lacks the keys of an evaluation file."""
+
+
 def _read_json(path: Path) -> dict[str, Any]:
     try:
         doc = json.loads(path.read_text())
@@ -157,7 +161,7 @@ def load_eval(path: str | Path) -> EvalResult:
     else:
         missing.append("algo or agent")
     if missing:
-        raise ReportError(
+        raise NotAnEvalFileError(
             f"{path}: not an evaluation file of `assetgen eval --out` (missing {missing}); "
             "re-run the evaluation with --out"
         )
@@ -209,17 +213,26 @@ def load_run(path: str | Path) -> Run:
     return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals)
 
 
-def load_baselines(paths: list[str | Path]) -> list[EvalResult]:
-    """Evaluation files given directly or as folders (every *.json directly inside)."""
-    files: list[Path] = []
+def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path]]:
+    """(evaluation results, skipped files) from evaluation files given directly or folders.
+
+    A file named directly must be an evaluation file. In a folder, every *.json directly
+    inside is read; valid JSON without the evaluation keys (a `bench --json` output, say)
+    is skipped and returned, so a results/ folder can be passed as it is."""
+    results: list[EvalResult] = []
+    skipped: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            files += sorted(p.glob("*.json"))
+            for f in sorted(p.glob("*.json")):
+                try:
+                    results.append(load_eval(f))
+                except NotAnEvalFileError:  # unreadable JSON is still an error
+                    skipped.append(f)
         elif p.is_file():
-            files.append(p)
+            results.append(load_eval(p))
         else:
             raise ReportError(f"{p}: no such file or folder of evaluation JSONs")
-    return [load_eval(f) for f in files]
+    return results, skipped
 
 
 def learning_curve(runs: list[Run]) -> Curve:
@@ -441,7 +454,7 @@ def write_report(
     out/learning_curves.png, out/time_to_success.png, out/table.md, out/report.json.
     Returns the report.json document."""
     runs = [load_run(p) for p in run_paths]
-    base = load_baselines(baselines)
+    base, skipped = load_baselines(baselines)
     if not runs and not base:
         raise ReportError("nothing to report: give run folders and/or --baselines")
     summary = summarise(runs, base)
@@ -450,6 +463,6 @@ def write_report(
     plot_learning_curves(summary["curves"], out / "learning_curves.png")
     plot_time_to_success(summary["cells"], out / "time_to_success.png")
     (out / "table.md").write_text(markdown_table(summary))
-    doc = report_json(summary)
+    doc = report_json(summary) | {"skipped_baselines": [str(f) for f in skipped]}
     (out / "report.json").write_text(json.dumps(doc, indent=2))
     return doc

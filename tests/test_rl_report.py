@@ -200,7 +200,14 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
                                   out=tmp_path / "results/scripted.json", json=True)  # fmt: skip
     assert sim_eval_main(sim_args) == 0
 
+    (tmp_path / "results/bench_sim.json").write_text('{"env_steps_per_s": 1.0}')
     doc = write_report(runs, [tmp_path / "results"], tmp_path / "report")
+    assert doc["skipped_baselines"] == [str(tmp_path / "results/bench_sim.json")]
+    (tmp_path / "results/broken.json").write_text('{"success_rate": ')  # unreadable: an error
+    with pytest.raises(ReportError, match=r"broken\.json"):
+        write_report(runs, [tmp_path / "results"], tmp_path / "report")
+    with pytest.raises(ReportError, match=r"bench_sim\.json: not an evaluation file"):
+        write_report(runs, [tmp_path / "results/bench_sim.json"], tmp_path / "report")
     ppo = doc["variants"]["PPO-STACK2"]  # stack 2: not the paper's 10
     assert ppo["seeds"] == [0, 1] and ppo["curve"]["runs"] <= 2
     assert ppo["eval"]["test"]["episodes"] == 2 * 4 * 2  # 2 seeds x 4 envs x 2 episodes
