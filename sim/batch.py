@@ -267,7 +267,7 @@ class BatchSim:
         bottom-face centre in the module frame. Returns (num_envs,) bool: envs whose
         physics broke down: a non-finite state, or a shard that MuJoCo stopped stepping
         after a warning (seen as a time that did not advance; every env of it is flagged,
-        as none of them moved).
+        as none of them moved), or a runaway peg (faster than `runaway_speed`).
         """
         p = self.task.physics
         self._scatter()
@@ -285,7 +285,13 @@ class BatchSim:
         self.shard_state[:] = self._out[:, -1]
         self.gather()
         stalled = np.abs(self.shard_state[:, 0] - t0 - p.substeps * p.timestep) > 0.5 * p.timestep
-        return ~np.isfinite(self.state).all(axis=1) | stalled[self.shard_of]
+        v = self.qvel
+        limit = p.runaway_speed**2
+        runaway = (np.einsum("ni,ni->n", v[:, :3], v[:, :3]) > limit) | (
+            np.einsum("ni,ni->n", v[:, 3:], v[:, 3:]) > 100.0 * limit
+        )
+        # NaN compares False: the finiteness test catches those
+        return ~np.isfinite(self.state).all(axis=1) | stalled[self.shard_of] | runaway
 
     def shard_control(self, velocity: np.ndarray) -> np.ndarray:
         """(num_envs, 6) velocities -> the shards' controls (shards, substeps, 6 x slots),

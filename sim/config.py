@@ -29,12 +29,14 @@ class PhysicsConfig:
     each capped so the actuator never saturates (see `force_limit`). One timestep is fine:
     the damping is integrated implicitly."""
     force_limit: float = 20.0
-    """Force limit of each linear actuator, N. The gain is capped at force_limit / (2 x
-    max_lin_vel) so no command reversal saturates it: a saturated actuator whose damping
-    is still integrated implicitly made the peg spin up in tests. Pushing into a wall at
-    full command therefore presses with kv x max_lin_vel = 9.1 N at most."""
+    """Most force a command can ask of a linear actuator, N: the gain is capped at
+    force_limit / (2.2 x max_lin_vel), so even a full command reversal stays below it, and
+    pushing into a wall at full command presses with kv x max_lin_vel = 9.1 N at most. The
+    actuator is not clamped to it (see sim/scene.py): a clamped damper integrated implicitly
+    spun knocked pegs up to km/s; past the limit only a contact's knock can take the peg."""
     torque_limit: float = 1.5
-    """Torque limit of each angular actuator, N m (gain capped as for the force)."""
+    """Most torque a command can ask of an angular actuator, N m (gain capped as for the
+    force)."""
     # No contact margin: in MuJoCo 4 a margin moves the contact surface out by that much
     # (forces act from distance `margin`), which would eat into the 1 mm clearance.
     contact_timeconst: float = 0.005
@@ -57,6 +59,12 @@ class PhysicsConfig:
     """Extra no-slip solver iterations (0: off)."""
     iterations: int = 30
     """Constraint solver (Newton) iterations per physics step at most."""
+    runaway_speed: float = 10.0
+    """A peg moving faster than this (m/s, 40 x the fastest command) or turning faster than
+    10 x this (rad/s) has left physics: its env is reset and reported unstable like a
+    non-finite one. No contact of a 9 N controller comes near it; a solver blow-up passes it
+    within a step or two (pegs that spun up reached km/s), before such states reach a
+    learner."""
     multiccd: bool = True
     """Several contacts per convex pair, so a flat face rests on a flat face without
     rocking on one point."""
@@ -125,6 +133,7 @@ class TaskConfig:
             "max_steps >= 1": self.max_steps >= 1,
             "substeps >= 1": p.substeps >= 1,
             "timestep > 0": p.timestep > 0,
+            "runaway_speed > 0": p.runaway_speed > 0,
             "contact_timeconst >= timestep": p.contact_timeconst >= p.timestep - 1e-12,
             "contact_timeconst >= 2 timestep unless integrator is discrete": (
                 p.integrator == "discrete" or p.contact_timeconst >= 2 * p.timestep - 1e-12

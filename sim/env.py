@@ -13,7 +13,8 @@ Contract (what rl/ relies on):
             final_obs        (num_envs, 18) float32: the last observation of that episode
             success          (num_envs,) bool
             failure          (num_envs,) bool
-            unstable         (num_envs,) bool: reset after non-finite physics (truncated)
+            unstable         (num_envs,) bool: reset after non-finite or runaway physics
+                             (truncated)
             episode_return   (num_envs,) float64
             episode_length   (num_envs,) int64, control steps
             time_to_success  (num_envs,) float64, seconds; NaN where not a success

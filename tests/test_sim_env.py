@@ -189,6 +189,22 @@ def test_unstable_env_is_reset_and_reported_without_stopping_the_batch(shard_siz
     assert np.isfinite(obs).all()
 
 
+def test_runaway_peg_is_reset_and_reported() -> None:
+    """A finite but runaway state (a solver blow-up) is unstable too: left alone it would
+    feed km-scale observations to the learner."""
+    env = make_env(2)
+    env.reset(seed=0)
+    # the controller halves the speed every physics step: still ~70 m/s after the 4 substeps
+    env.sim.qvel[0, :3] = [0.0, 0.0, 1000.0]
+    env.sim.qvel[1, :3] = [0.0, 8.0, 0.0]  # fast, but below runaway_speed: physics
+    _, r, term, trunc, info = env.step(np.zeros((2, 6)))
+    assert info["unstable"].tolist() == [True, False] and trunc.tolist() == [True, False]
+    assert not term.any()
+    assert r[0] == 0.0 and env.unstable_count == 1
+    assert np.abs(env.sim.qvel[0]).max() == 0.0  # reset at rest
+    assert np.linalg.norm(env.sim.qvel[1, :3]) < 8.0  # damped, not flagged
+
+
 def test_missing_or_corrupt_dataset_fails_before_simulating(tmp_path: Path) -> None:
     with pytest.raises(AssetError, match="not a dataset"):
         PegInHoleVecEnv(tmp_path / "nothing")

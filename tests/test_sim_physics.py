@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import mujoco
 import numpy as np
 import pytest
 
+from sim.assets import load_dataset
 from sim.config import PhysicsConfig
+from sim.env import PegInHoleVecEnv
 from sim.rotations import matrix_to_quat, matrix_to_rotvec, quat_to_matrix
 from sim.scene import restitution_to_dampratio
 from tests.test_sim_common import above_plate, make_env, quiet
@@ -62,6 +65,59 @@ def test_commanded_velocity_is_tracked(axis: int) -> None:
     assert rise <= 6
     assert abs(site_vel[-10:].mean() - 1.0) < 0.005
     assert site_vel.max() < 1.1  # no overshoot to speak of
+
+
+def _kinetic_energy(env) -> float:
+    """0.5 qdot^T M(q) qdot of env 0's peg (its model holds that peg alone)."""
+    m = env.sim.models[env.sim.shard_of[0]]
+    assert m.nv == 6
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = env.sim.state[0, 1:8], env.sim.qvel[0]
+    mujoco.mj_forward(m, d)
+    mass = np.zeros((6, 6))
+    mujoco.mj_fullM(m, d, mass)
+    return float(0.5 * d.qvel @ mass @ d.qvel)
+
+
+@pytest.mark.parametrize("kick", [0, 3])
+def test_a_knocked_peg_is_damped(kick: int) -> None:
+    """A contact can knock the peg far above the commanded speeds. With zero command the
+    controller is a pure damper: it takes energy out at every step (free in space, where
+    nothing else acts)."""
+    env = make_env(1, FINE)
+    env.reset(seed=0)
+    env.set_peg_poses(np.array([0]), _free_pose(env)[None])
+    env.sim.qvel[0] = 0.0
+    env.sim.qvel[0, kick : kick + 3] = [10.0, -5.0, 3.0] if kick == 0 else [20.0, -12.0, 6.0]
+    energy = [_kinetic_energy(env)]
+    for _ in range(40):
+        env.step(np.zeros((1, 6)))
+        energy.append(_kinetic_energy(env))
+    assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.round(energy, 6)
+    assert energy[-1] < 1e-6 * energy[0]
+
+
+def test_a_spinning_peg_under_full_command_is_not_spun_up(tmp_path) -> None:
+    """Test-split module 003014 (a peg with a small inertia about its axis), knocked to
+    24 rad/s about that axis (seen after a contact in training) while a policy commands near
+    full speed. Force-clamped actuators, whose damping MuJoCo still integrated implicitly,
+    spun it up a billion-fold in energy (and such pegs flew off at km/s, polluting training
+    batches); unclamped, the energy stays within a small factor of the start's and of the
+    commanded motion's."""
+    from assetgen.dataset import DatasetSpec, generate
+    from assetgen.sampler import SamplerConfig
+
+    spec = DatasetSpec("spin", 3014, 1, SamplerConfig(), ("collision",))
+    assert not generate(tmp_path / "spin", spec, workers=1, progress=False).failures
+    env = PegInHoleVecEnv(load_dataset(tmp_path / "spin"), config=FINE, nthread=1)
+    env.reset(seed=0)
+    env.set_peg_poses(np.array([0]), _free_pose(env)[None])
+    env.sim.qvel[0] = [0.0, 0.0, 0.0, 0.0, 0.0, 24.0]
+    energy = [_kinetic_energy(env)]
+    for _ in range(40):
+        env.step(np.array([[0.5, -0.9, 0.7, 0.95, -1.0, -1.0]]))
+        energy.append(_kinetic_energy(env))
+    assert max(energy) < 3.0 * max(energy[0], energy[-1]), np.round(energy, 4)
 
 
 def test_rotation_is_about_the_bottom_face_centre() -> None:
