@@ -26,7 +26,7 @@ class PhysicsConfig:
     tracking_time_constant: float = 0.005
     """Time constant of the velocity controller, s: kv = mass / tau (linear) and
     I_max / tau (angular, I_max the largest principal inertia about the bottom-face centre),
-    each capped so the actuator never saturates (see `force_limit`). One timestep is fine:
+    each capped so no command asks for more than `force_limit`. One timestep is fine:
     the damping is integrated implicitly."""
     force_limit: float = 20.0
     """Most force a command can ask of a linear actuator, N: the gain is capped at

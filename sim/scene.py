@@ -178,7 +178,8 @@ def add_environment(
     site = body.add_site()
     site.name = f"{prefix}{PEG_SITE}"
 
-    # never saturating: a reversal from -max to +max velocity needs kv * 2 * max <= limit
+    # no command asks for more than the limit: a reversal from -max to +max velocity needs
+    # kv * 2 * max <= limit (2.2 for a margin)
     kv_lin = min(
         asset.peg_mass / physics.tracking_time_constant, physics.force_limit / (2.2 * max_lin_vel)
     )
