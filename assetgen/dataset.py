@@ -20,12 +20,18 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from assetgen import GENERATOR_VERSION
-from assetgen.module_writer import ModuleFailure, generate_module, module_id, write_json
 from assetgen.params import ParamError
 from assetgen.sampler import SamplerConfig
 from assetgen.timing import StepTimes, add_times
+
+if TYPE_CHECKING:
+    from assetgen.module_writer import ModuleFailure
+
+# The writing half imports the generator (manifold3d, python-fcl, ...) when it runs, so that
+# reading a dataset (the simulator, the agents) needs none of the CAD stack.
 
 SPEC_KEYS = {"name", "seed_start", "count", "config", "formats"}
 DEFAULT_FORMATS = ("mjcf", "usd")
@@ -225,6 +231,8 @@ Result = tuple[int, dict | None, str | None, StepTimes]
 
 
 def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
+    from assetgen.module_writer import ModuleFailure, generate_module
+
     seed, config, modules_dir, formats = args
     times: StepTimes = {}
     try:
@@ -237,6 +245,8 @@ def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
 
 
 def _prepare(root: Path, spec: DatasetSpec, overwrite: bool) -> None:
+    from assetgen.module_writer import write_json
+
     info_file = root / "dataset.json"
     if info_file.exists():
         old = json.loads(info_file.read_text())
@@ -305,6 +315,8 @@ def generate(
     progress: bool = True,
 ) -> RunSummary:
     """Generate every module of `spec` not yet in `root`; return a summary."""
+    from assetgen.module_writer import ModuleFailure, module_id, write_json
+
     spec.validate()
     t0 = time.perf_counter()
     _prepare(root, spec, overwrite)
