@@ -33,3 +33,9 @@ def strict_json(doc: dict[str, Any]) -> dict[str, Any]:
 def write_json(path: str | Path, doc: dict[str, Any], **dumps: Any) -> Path:
     """`write_text` of `json.dumps(doc, **dumps)`."""
     return write_text(path, json.dumps(doc, **dumps))
+
+
+def write_dataset_json(path: str | Path, doc: dict[str, Any]) -> Path:
+    """`doc` in the layout of every JSON file of a dataset (module.json, dataset.json):
+    indent 1, sorted keys, a final newline, so equal content gives equal bytes."""
+    return write_text(path, json.dumps(doc, indent=1, sort_keys=True) + "\n")

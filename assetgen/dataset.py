@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from assetgen import GENERATOR_VERSION
+from assetgen.atomic_file import write_dataset_json as write_json
 from assetgen.params import ParamError
 from assetgen.sampler import SamplerConfig
 from assetgen.timing import StepTimes, add_times
@@ -245,8 +246,6 @@ def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
 
 
 def _prepare(root: Path, spec: DatasetSpec, overwrite: bool) -> None:
-    from assetgen.module_writer import write_json
-
     info_file = root / "dataset.json"
     if info_file.exists():
         old = json.loads(info_file.read_text())
@@ -315,7 +314,7 @@ def generate(
     progress: bool = True,
 ) -> RunSummary:
     """Generate every module of `spec` not yet in `root`; return a summary."""
-    from assetgen.module_writer import ModuleFailure, module_id, write_json
+    from assetgen.module_writer import ModuleFailure, module_id
 
     spec.validate()
     t0 = time.perf_counter()
