@@ -362,7 +362,8 @@ def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path) -> None:
         "obs, *_ = env.step(np.zeros((2, 6), np.float32))\n"
         "print('ok', obs.shape)\n"
     )
-    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{repo}")
+    path = [str(tmp_path), str(repo), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(path))
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "ok (2, 18)" in r.stdout
