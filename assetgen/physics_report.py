@@ -22,11 +22,11 @@ allowed motion of a weightless peg, but not what a wall test measures).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
+from assetgen.atomic_file import write_json
 from assetgen.mjcf_physics import corner_angles, drop_test, side_face_angles, side_push_test
 
 GRAVITY = 9.81
@@ -165,7 +165,8 @@ def report(root: Path, limit: int | None = None, json_out: Path | None = None) -
         print(f"FAIL {mid}: " + "; ".join(bad))
     print(f"{len(ids) - len(failed)}/{len(ids)} modules pass")
     if json_out:
-        Path(json_out).write_text(json.dumps({"modules": rows, "failed": failed}, indent=1))
+        # atomically: a report interrupted mid-write never replaces a finished one
+        write_json(json_out, {"modules": rows, "failed": failed}, indent=1)
     return 1 if failed else 0
 
 
