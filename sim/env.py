@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim import step_kernel as K
 from sim import task as T
 from sim.assets import ModuleAsset, load_dataset
 from sim.batch import BatchSim
@@ -144,6 +145,11 @@ class PegInHoleVecEnv:
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
+        self._score_params = np.array(
+            [cfg.dist_pos_weight, cfg.dist_rot_weight, cfg.success_radius, cfg.failure_depth,
+             cfg.failure_reward, cfg.obs_pos_noise, cfg.obs_rot_noise]
+        )  # fmt: skip
+        self._no_noise = np.zeros((n, 6), dtype=np.float32)
 
     # ------------------------------------------------------------------ helpers
 
@@ -179,14 +185,19 @@ class PegInHoleVecEnv:
         """(num_envs, 4, 4) true peg poses in the module frame."""
         return T.pose(self.sim.peg_pos, self.sim.peg_quat)
 
-    def _observe(
-        self, pos: np.ndarray, quat: np.ndarray, idx: np.ndarray | slice = slice(None)
-    ) -> np.ndarray:
-        """Observations of envs idx from their true poses pos (k, 3), quat (k, 4)."""
+    def _observe(self, idx: np.ndarray) -> np.ndarray:
+        """(k, 18) float32 observations of envs idx (k,) from their current poses, with this
+        call's estimation noise (if on)."""
+        idx = np.asarray(idx, dtype=np.int64)
         cfg = self.cfg
-        if cfg.noise:
-            pos, quat = T.perturb(pos, quat, self.rng, cfg.obs_pos_noise, cfg.obs_rot_noise)
-        return T.observe(pos, quat, self._frames[idx])
+        e = T.pose_noise(self.rng, len(idx)) if cfg.noise else np.zeros((len(idx), 6), np.float32)
+        out = np.empty((len(idx), T.OBS_DIM), dtype=np.float32)
+        f = self._frames
+        K.observe(
+            self.sim.state, idx, f.rows, f.origin_in, e, cfg.noise, cfg.obs_pos_noise,
+            cfg.obs_rot_noise, out,
+        )  # fmt: skip
+        return out
 
     def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Bookkeeping of episodes starting at poses pos (k, 3), quat (k, 4) in envs idx."""
@@ -231,7 +242,7 @@ class PegInHoleVecEnv:
         quat = matrix_to_quat(poses[:, :3, :3])
         self.sim.set_pose(idx, poses[:, :3, 3], quat)
         self._start_episodes(idx, poses[:, :3, 3], quat)
-        self._obs[idx] = self._observe(poses[:, :3, 3], quat, idx)
+        self._obs[idx] = self._observe(idx)
 
     # ------------------------------------------------------------------ API
 
@@ -240,7 +251,7 @@ class PegInHoleVecEnv:
         if seed is not None:
             self.rng = np.random.default_rng(seed)
         self._reset_envs(np.arange(self.num_envs))
-        self._obs = self._observe(self.sim.peg_pos, self.sim.peg_quat)
+        self._obs = self._observe(np.arange(self.num_envs))
         return self._obs.copy()
 
     def _check_actions(self, actions: np.ndarray) -> np.ndarray:
@@ -265,45 +276,32 @@ class PegInHoleVecEnv:
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
         cfg = self.cfg
-        velocity = np.clip(self._check_actions(actions), -1.0, 1.0) * self._act_scale
-        if cfg.noise:
-            velocity += self.rng.standard_normal(velocity.shape, dtype=np.float32) * self._act_noise
+        n = self.num_envs
+        actions = self._check_actions(actions)
+        # the command noise, then this step's pose-estimation errors, in one draw: the same
+        # stream as two draws, the second after the physics
+        e = self.rng.standard_normal((2 * n, 6), dtype=np.float32) if cfg.noise else None
+        act_e, noise = (e[:n], e[n:]) if e is not None else (self._no_noise, self._no_noise)
+        velocity = np.empty((n, T.ACT_DIM))
+        K.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
         unstable = self.sim.step(velocity)
-        self.global_step += self.num_envs
+        self.global_step += n
         self._steps += 1
-
-        pos, quat = self.sim.peg_pos, self.sim.peg_quat
-        if unstable.any():
-            # keep the batch going: a placeholder pose for the arithmetic below (its reward
-            # is 0, its observation the last finite one); it is reset like a finished episode
-            pos, quat = pos.copy(), quat.copy()
-            pos[unstable] = 0.0
-            quat[unstable] = (1.0, 0.0, 0.0, 0.0)
-        bottom_pos, bottom_qc = self._frames.bottom_pos, self._frames.bottom_quat_conj
-        c = T.progress(T.seat_distance(pos, quat, bottom_pos, bottom_qc, cfg), self._d0)
-        reward = c - self._c_prev
-        success = T.succeeded(pos, bottom_pos, cfg) & ~unstable
-        failure = T.failed(
-            pos, quat, self.peg_vertices, self.bottom, self.hole_radius, cfg.failure_depth,
-            self.peg_reach,
+        obs = np.empty((n, T.OBS_DIM), dtype=np.float32)
+        reward = np.empty(n)
+        success = np.empty(n, dtype=bool)
+        failure = np.empty(n, dtype=bool)
+        f = self._frames
+        K.score(
+            self.sim.state, unstable, noise, cfg.noise, f.rows, f.origin_in, f.bottom_pos,
+            f.bottom_quat_conj, self.bottom, self.peg_vertices, self.hole_radius,
+            self.peg_reach, self._d0, self._c_prev, self._return, self._obs,
+            self._score_params, obs, reward, success, failure,
         )  # fmt: skip
-        failure &= ~success & ~unstable
-        # c_T - c_{T-1} + (1 - c_T) = 1 - c_{T-1} = 1 - (return so far), written so that the
-        # float sum of a successful episode's rewards is exactly 1.0
-        if success.any():
-            reward[success] = 1.0 - self._return[success]
-        if failure.any() or unstable.any():
-            reward[failure] = cfg.failure_reward
-            reward[unstable] = 0.0
-        self._return += reward
-        self._c_prev = c
-
         terminated = success | failure
         truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
         done = terminated | truncated
-        obs = self._observe(pos, quat)
         if unstable.any():
-            obs[unstable] = self._obs[unstable]  # the last finite observation
             self.unstable_count += int(unstable.sum())
         info = {
             "final_obs": obs.copy(),
@@ -319,7 +317,7 @@ class PegInHoleVecEnv:
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
-            obs[idx] = self._observe(self.sim.peg_pos[idx], self.sim.peg_quat[idx], idx)
+            obs[idx] = self._observe(idx)
         self._obs = obs
         return obs.copy(), reward, terminated, truncated, info
 

@@ -108,17 +108,21 @@ def observe(pos: np.ndarray, quat: np.ndarray, frames: ObsFrames) -> np.ndarray:
 
 
 def perturb(
-    pos: np.ndarray, quat: np.ndarray, rng: np.random.Generator, pos_std: float, rot_std: float
+    pos: np.ndarray, quat: np.ndarray, e: np.ndarray, pos_std: float, rot_std: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """One estimation error per peg of poses pos (n, 3), quat (n, 4): position + N(0, pos_std)
     per axis, orientation turned by a rotation vector with N(0, rot_std) components (module
     frame). Both observed transforms come from this one estimate, so they stay consistent.
-    Returns the noisy (pos, quat). (float32 draws: the noise needs no more digits.)"""
-    # one draw for both: position (first 3) and rotation vector (last 3), per peg
-    e = rng.standard_normal((len(pos), 6), dtype=np.float32)
+    e (n, 6): standard normal draws (`pose_noise`), position first, then rotation vector.
+    Returns the noisy (pos, quat)."""
     noisy_pos = pos + pos_std * e[:, :3]
     noisy_quat = quat_mul(rotvec_to_quat(rot_std * e[:, 3:].astype(np.float64)), quat)
     return noisy_pos, noisy_quat
+
+
+def pose_noise(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 6) float32 standard normal draws for `perturb` (the noise needs no more digits)."""
+    return rng.standard_normal((n, 6), dtype=np.float32)
 
 
 def seat_distance(

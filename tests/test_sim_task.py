@@ -77,7 +77,7 @@ def test_perturb_draws_the_stated_noise() -> None:
     n = 20000
     pos = np.zeros((n, 3))
     quat = np.tile([1.0, 0, 0, 0], (n, 1))
-    noisy_pos, noisy_quat = T.perturb(pos, quat, rng, 0.0005, np.radians(1.0))
+    noisy_pos, noisy_quat = T.perturb(pos, quat, T.pose_noise(rng, n), 0.0005, np.radians(1.0))
     assert noisy_pos.std(axis=0) == pytest.approx([0.0005] * 3, rel=0.03)
     rotvec = matrix_to_rotvec(quat_to_matrix(noisy_quat))
     assert rotvec.std(axis=0) == pytest.approx([np.radians(1.0)] * 3, rel=0.03)
