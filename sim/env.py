@@ -186,9 +186,9 @@ class PegInHoleVecEnv:
         return T.pose(self.sim.peg_pos, self.sim.peg_quat)
 
     def _observe(self, idx: np.ndarray) -> np.ndarray:
-        """(k, 18) float32 observations of envs idx (k,) from their current poses, with this
-        call's estimation noise (if on)."""
-        idx = np.asarray(idx, dtype=np.int64)
+        """(k, 18) float32 observations of envs idx (indices or a mask) from their current
+        poses, with this call's estimation noise (if on)."""
+        idx = np.arange(self.num_envs)[idx]
         cfg = self.cfg
         e = T.pose_noise(self.rng, len(idx)) if cfg.noise else np.zeros((len(idx), 6), np.float32)
         out = np.empty((len(idx), T.OBS_DIM), dtype=np.float32)
