@@ -304,6 +304,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--steps", type=int, default=200, help="control steps (sim)")
     b.add_argument("--dataset", default="test", help="dataset (sim; default test)")
     b.add_argument("--threads", type=int, default=None, help="rollout threads (sim)")
+    b.add_argument(
+        "--kernels",
+        choices=["auto", "numba", "numpy"],
+        default="auto",
+        help="the env's per-step arithmetic (sim): compiled (numba; auto uses it when "
+        "installed) or numpy, to compare",
+    )
     b.add_argument("--workers", type=int, default=None)
     b.add_argument("--json", action="store_true", help="print the figures as JSON last")
     b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")

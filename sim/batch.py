@@ -34,10 +34,10 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from sim import step_kernel as K
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
 from sim.scene import build_model, contact_solref
+from sim.step_impl import kernels as step_kernels
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # Counts that size arrays of mjData: the capacity model's must be at least each model's.
@@ -102,8 +102,10 @@ class BatchSim:
         nthread: int | None = None,
         shard_size: int = 8,
         spare_assets: list[ModuleAsset] | None = None,
+        kernels: str = "auto",
     ) -> None:
         self.task = task
+        self._k = step_kernels(kernels)
         self.num_envs = n = len(env_assets)
         p = task.physics
         s_count, k = shard_layout(n, shard_size)
@@ -274,7 +276,7 @@ class BatchSim:
         """
         # the layout work (scatter, gather, checks) is compiled (step_kernel): on numpy it
         # took 0.15-0.3 ms a step at 1024 envs on one core, the other idle
-        K.scatter(self.state, self._offset, self._flat, velocity, self._ss_flat, self._ctrl)
+        self._k.scatter(self.state, self._offset, self._flat, velocity, self._ss_flat, self._ctrl)
         t0 = self.shard_state[:, 0].copy()
         self._rollout.rollout(
             self.models,
@@ -287,7 +289,7 @@ class BatchSim:
         )
         self.shard_state[:] = self._out[:, -1]
         unstable = np.empty(self.num_envs, dtype=bool)
-        K.gather(
+        self._k.gather(
             self._ss_flat, self._flat, self._offset, t0, self.shard_of, self._check_params,
             self.state, unstable,
         )  # fmt: skip

@@ -33,13 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sim import step_kernel as K
 from sim import task as T
 from sim.assets import ModuleAsset, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
 from sim.rotations import matrix_to_quat
 from sim.scene import restitution_to_dampratio
+from sim.step_impl import kernels as step_kernels
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -77,8 +77,12 @@ class PegInHoleVecEnv:
         nthread: int | None = None,
         shard_size: int = 8,
         rotate_modules: bool = False,
+        kernels: str = "auto",
     ) -> None:
         self.cfg = (config or TaskConfig()).validate()
+        self._k = step_kernels(kernels)
+        self.kernels: str = self._k.NAME
+        """The per-step arithmetic in use: numba (compiled) or numpy; same results."""
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
             raise ValueError("no modules given: pass a dataset folder or a non-empty list")
@@ -99,7 +103,7 @@ class PegInHoleVecEnv:
             rest = np.setdiff1d(np.arange(len(modules)), self.env_module)
             self._queue = np.random.default_rng(assignment_seed).permutation(rest).tolist()
             spare = [modules[k] for k in self._queue]
-        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
+        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare, kernels)
         self.control_dt = self.cfg.control_dt
 
         # per-module constants (of every module when rotating, else of the envs' modules),
@@ -193,7 +197,7 @@ class PegInHoleVecEnv:
         e = T.pose_noise(self.rng, len(idx)) if cfg.noise else np.zeros((len(idx), 6), np.float32)
         out = np.empty((len(idx), T.OBS_DIM), dtype=np.float32)
         f = self._frames
-        K.observe(
+        self._k.observe(
             self.sim.state, idx, f.rows, f.origin_in, e, cfg.noise, cfg.obs_pos_noise,
             cfg.obs_rot_noise, out,
         )  # fmt: skip
@@ -202,7 +206,11 @@ class PegInHoleVecEnv:
     def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Bookkeeping of episodes starting at poses pos (k, 3), quat (k, 4) in envs idx."""
         f = self._frames
-        d0 = T.seat_distance(pos, quat, f.bottom_pos[idx], f.bottom_quat_conj[idx], self.cfg)
+        cfg = self.cfg
+        d0 = T.seat_distance(
+            pos, quat, f.bottom_pos[idx], f.bottom_quat_conj[idx], cfg.dist_pos_weight,
+            cfg.dist_rot_weight,
+        )  # fmt: skip
         self._d0[idx] = np.maximum(d0, 1e-9)
         self._c_prev[idx] = 0.0
         self._steps[idx] = 0
@@ -283,7 +291,7 @@ class PegInHoleVecEnv:
         e = self.rng.standard_normal((2 * n, 6), dtype=np.float32) if cfg.noise else None
         act_e, noise = (e[:n], e[n:]) if e is not None else (self._no_noise, self._no_noise)
         velocity = np.empty((n, T.ACT_DIM))
-        K.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
+        self._k.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
         unstable = self.sim.step(velocity)
         self.global_step += n
         self._steps += 1
@@ -292,7 +300,7 @@ class PegInHoleVecEnv:
         success = np.empty(n, dtype=bool)
         failure = np.empty(n, dtype=bool)
         f = self._frames
-        K.score(
+        self._k.score(
             self.sim.state, unstable, noise, cfg.noise, f.rows, f.origin_in, f.bottom_pos,
             f.bottom_quat_conj, self.bottom, self.peg_vertices, self.hole_radius,
             self.peg_reach, self._d0, self._c_prev, self._return, self._obs,

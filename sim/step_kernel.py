@@ -2,19 +2,20 @@
 envs per stage instead of about a hundred numpy calls on (num_envs, ...) arrays.
 
 At 1024 envs on the 2-core machine the env's own work runs on one thread while the other
-core idles, so every microsecond of it counts against the physics (6-8 ms a step). The
-main thread's CPU time per step (time.thread_time, about 0.3 ms of it spent in the
-rollout call itself) fell from 1.46-1.78 ms on numpy to 1.07-1.27 ms compiled, and the env
-went from 0.77-0.80 of raw `mujoco.rollout` throughput to 0.85-0.92 (`assetgen bench sim`).
-What is left is mostly the noise draws (12,288 float32 normals, ~0.17 ms), kept on numpy's
-Generator so that seeded streams and exact resume are unchanged. Splitting the batch to
-score one part while the next steps (the rollout releases the GIL) gained nothing
-measurable on 2 cores, so the step stays serial. Written by hand because no library fuses
-it: MuJoCo's sensors could give the clean observation, but not the estimation noise, the
-quaternion form of the seat distance or the failure test.
+core idles, so every microsecond of it counts against the physics (6-8 ms a step). On
+numpy (sim/step_numpy.py, the same functions) the env keeps 0.80 of raw `mujoco.rollout`
+throughput, compiled 0.87-0.91 (`assetgen bench sim --kernels numpy|numba`, one sitting).
+The main thread's CPU time per step (time.thread_time, about 0.3 ms of it spent in the
+rollout call itself) fell from 1.46-1.78 ms to 1.07-1.27 ms. What is left is mostly the
+noise draws (12,288 float32 normals, ~0.17 ms), kept on numpy's Generator so that seeded
+streams and exact resume are unchanged. Splitting the batch to score one part while the
+next steps (the rollout releases the GIL) gained nothing measurable on 2 cores, so the
+step stays serial. Written by hand because no library fuses it: MuJoCo's sensors could
+give the clean observation, but not the estimation noise, the quaternion form of the seat
+distance or the failure test.
 
-The numpy functions of `sim.task` are the reference: tests/test_sim_kernel.py holds the
-kernels to them on random batches that reach every branch.
+sim/step_numpy.py, built from the task functions of sim/task.py, is the reference:
+tests/test_sim_kernel.py holds the kernels to it on random batches that reach every branch.
 
     command  actions -> commanded velocities (clip, scale, command noise)
     scatter  env states and velocities -> shard states and controls (BatchSim's layout)
@@ -32,6 +33,9 @@ import math
 
 import numpy as np
 from numba import njit
+
+NAME = "numba"
+"""How sim.step_impl names this implementation."""
 
 
 @njit(cache=True, nogil=True, inline="always")

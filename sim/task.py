@@ -90,7 +90,14 @@ class ObsFrames:
 
 
 def observe(pos: np.ndarray, quat: np.ndarray, frames: ObsFrames) -> np.ndarray:
-    """(n, 18) float32: `observe_matrices` of the poses pos (n, 3), quat (n, 4) (unit).
+    """(n, 18) float32: `observe_matrices` of the poses pos (n, 3), quat (n, 4) (unit)."""
+    return observe_rows(pos, quat, frames.rows, frames.origin_in)
+
+
+def observe_rows(
+    pos: np.ndarray, quat: np.ndarray, rows: np.ndarray, origin_in: np.ndarray
+) -> np.ndarray:
+    """`observe` given the frames' rows (n, 6, 3) and origin_in (n, 6) (see ObsFrames).
 
     The peg's position and first two rotation columns (three module-frame vectors, the
     columns of v) go into both frames at once: rows @ v, then R_f^T p_f off the position."""
@@ -98,8 +105,8 @@ def observe(pos: np.ndarray, quat: np.ndarray, frames: ObsFrames) -> np.ndarray:
     v = np.empty((n, 3, 3))
     v[:, :, 0] = pos
     v[:, :, 1:] = quat_rot6d(quat).reshape(n, 2, 3).transpose(0, 2, 1)
-    res = frames.rows @ v  # (n, frame * 3 + component, vector)
-    res[:, :, 0] -= frames.origin_in
+    res = rows @ v  # (n, frame * 3 + component, vector)
+    res[:, :, 0] -= origin_in
     # no clip to [-1, 1] as in `observe_matrices`: rotation entries past 1 by rounding (~1e-16)
     # round to 1 in float32
     out = np.empty((n, 2, 3, 3), dtype=np.float32)  # (n, frame, vector, component)
@@ -130,11 +137,12 @@ def seat_distance(
     quat: np.ndarray,
     bottom_pos: np.ndarray,
     bottom_quat_conj: np.ndarray,
-    cfg: TaskConfig,
+    pos_weight: float,
+    rot_weight: float,
 ) -> np.ndarray:
     """(n,) d = w_t ||t|| + w_r ||R - I||_F of the peg-to-bottom transforms (t in metres),
     for poses pos (n, 3), quat (n, 4) (unit) and bottom frames with origins (n, 3) and
-    inverse orientations (n, 4).
+    inverse orientations (n, 4); w_t, w_r: TaskConfig.dist_pos_weight, dist_rot_weight.
 
     ||t|| is the distance of the origins; ||R - I||_F = 2 sqrt(2) |sin(angle / 2)| =
     sqrt(8) ||vector part of the relative quaternion|| (exact near the seat, where
@@ -145,7 +153,7 @@ def seat_distance(
     a_v, q_v = bottom_quat_conj[:, 1:], quat[:, 1:]
     v = bottom_quat_conj[:, :1] * q_v + quat[:, :1] * a_v + cross3(a_v, q_v)
     r = np.sqrt(8.0 * np.einsum("ni,ni->n", v, v))
-    return cfg.dist_pos_weight * t + cfg.dist_rot_weight * r
+    return pos_weight * t + rot_weight * r
 
 
 def progress(d: np.ndarray, d0: np.ndarray) -> np.ndarray:

@@ -334,25 +334,28 @@ def test_factories_for_rl() -> None:
         make_eval_env("no-such-dataset", 1, 0)
 
 
-_BLOCK_CAD_STACK = """
+_BLOCK = """
 import sys
 class _Block:
     def find_spec(self, name, path=None, target=None):
-        if name.split(".")[0] in {"fcl", "manifold3d", "coacd", "pxr", "trimesh", "scipy", "viser"}:
-            raise ImportError(f"{name} is blocked by this test")
+        if name.split(".")[0] in {blocked!r}:
+            raise ImportError(f"{{name}} is blocked by this test")
 sys.meta_path.insert(0, _Block())
 """
+_CAD_STACK = {"fcl", "manifold3d", "coacd", "pxr", "trimesh", "scipy", "viser"}
 
 
-def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path) -> None:
+@pytest.mark.parametrize("numba", [True, False])
+def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path, numba: bool) -> None:
     """The simulator and the agents read module.json and the collision files only: a machine
     without the generator's libraries (python-fcl, manifold3d, USD, ...) can train on a
-    dataset made elsewhere."""
+    dataset made elsewhere; without numba too (the step's numpy form runs)."""
     import os
     import subprocess
     import sys
 
-    (tmp_path / "sitecustomize.py").write_text(_BLOCK_CAD_STACK)
+    blocked = _CAD_STACK if numba else _CAD_STACK | {"numba", "llvmlite"}
+    (tmp_path / "sitecustomize.py").write_text(_BLOCK.format(blocked=sorted(blocked)))
     repo = Path(__file__).resolve().parents[1]
     code = (
         "from sim.env import make_train_env\n"
@@ -360,13 +363,13 @@ def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path) -> None:
         f"env = make_train_env({str(sim_dataset())!r}, 2, seed=0)\n"
         "env.reset(seed=0)\n"
         "obs, *_ = env.step(np.zeros((2, 6), np.float32))\n"
-        "print('ok', obs.shape)\n"
+        "print('ok', obs.shape, env.kernels)\n"
     )
     path = [str(tmp_path), str(repo), *filter(None, [os.environ.get("PYTHONPATH")])]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(path))
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
-    assert "ok (2, 18)" in r.stdout
+    assert f"ok (2, 18) {'numba' if numba else 'numpy'}" in r.stdout
     # the blocker works: the generator itself cannot be imported under it
     r = subprocess.run(
         [sys.executable, "-c", "import assetgen.checks"], env=env, capture_output=True, text=True

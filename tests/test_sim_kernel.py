@@ -1,6 +1,8 @@
-"""The compiled per-step kernels (sim/step_kernel.py) against the numpy reference functions
-of sim/task.py and the layouts of sim/batch.py, on random batches that reach every branch:
-success, failure below the surface outside the hole, inside the hole, unstable rows."""
+"""The compiled per-step kernels (sim/step_kernel.py) against their numpy forms
+(sim/step_numpy.py, built from the task functions of sim/task.py that test_sim_task.py
+holds to their matrix definitions), on random batches that reach every branch: success,
+failure below the surface outside the hole, inside the hole, unstable rows; and both against
+the shard layout they serve."""
 
 from __future__ import annotations
 
@@ -8,8 +10,10 @@ import numpy as np
 import pytest
 
 from sim import step_kernel as K
+from sim import step_numpy as NP
 from sim import task as T
 from sim.config import TaskConfig
+from sim.env import PegInHoleVecEnv
 
 N = 400
 V = 12
@@ -53,34 +57,8 @@ def _batch(seed: int) -> dict:
     }
 
 
-def _reference(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
-    """PegInHoleVecEnv.step's scoring on numpy (the task functions), as it was before the
-    kernel: obs, reward, success, failure, returns, c_prev."""
-    frames = T.ObsFrames.of(b["entrance"], b["bottom"])
-    unstable = b["unstable"]
-    pos, quat = b["state"][:, 1:4].copy(), b["state"][:, 4:8].copy()
-    pos[unstable], quat[unstable] = 0.0, (1.0, 0.0, 0.0, 0.0)
-    d = T.seat_distance(pos, quat, frames.bottom_pos, frames.bottom_quat_conj, cfg)
-    c = T.progress(d, b["d0"])
-    reward = c - b["c_prev"]
-    success = T.succeeded(pos, frames.bottom_pos, cfg) & ~unstable
-    failure = T.failed(
-        pos, quat, b["vertices"], b["bottom"], b["hole_radius"], cfg.failure_depth, b["reach"]
-    )
-    failure &= ~success & ~unstable
-    returns = b["returns"].copy()
-    reward[success] = 1.0 - returns[success]
-    reward[failure] = cfg.failure_reward
-    reward[unstable] = 0.0
-    returns += reward
-    if cfg.noise:
-        pos, quat = T.perturb(pos, quat, b["e"], cfg.obs_pos_noise, cfg.obs_rot_noise)
-    obs = T.observe(pos, quat, frames)
-    obs[unstable] = b["last_obs"][unstable]
-    return obs, reward, success, failure, returns, c
-
-
-def _kernel(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
+def _score(impl, b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
+    """impl.score on batch b: obs, reward, success, failure, returns, c_prev."""
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
     params = np.array(
         [cfg.dist_pos_weight, cfg.dist_rot_weight, cfg.success_radius, cfg.failure_depth,
@@ -89,7 +67,7 @@ def _kernel(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
     obs = np.empty((N, 18), dtype=np.float32)
     reward, success, failure = np.empty(N), np.empty(N, bool), np.empty(N, bool)
     c_prev, returns = b["c_prev"].copy(), b["returns"].copy()
-    K.score(
+    impl.score(
         b["state"], b["unstable"], b["e"], cfg.noise, frames.rows, frames.origin_in,
         frames.bottom_pos, frames.bottom_quat_conj, b["bottom"], b["vertices"],
         b["hole_radius"], b["reach"], b["d0"], c_prev, returns, b["last_obs"], params, obs,
@@ -103,9 +81,8 @@ def _kernel(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
 def test_score_equals_the_numpy_task_functions(noise: bool, seed: int) -> None:
     b = _batch(seed)
     cfg = TaskConfig(noise=noise)
-    want = _reference(b, cfg)
-    got = _kernel(b, cfg)
-    obs, reward, success, failure, returns, c_prev = got
+    want = _score(NP, b, cfg)
+    obs, reward, success, failure, returns, c_prev = _score(K, b, cfg)
     # every branch is reached, or the comparison proves little
     assert want[2].sum() > 10 and want[3].sum() > 10 and b["unstable"].sum() > 5
     low_unfailed = (b["state"][:, 3] < -0.01) & ~want[3] & ~b["unstable"]
@@ -123,14 +100,17 @@ def test_observe_of_chosen_envs_equals_the_reference() -> None:
     cfg = TaskConfig()
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
     idx = np.array([5, 0, 399, 17])
-    out = np.empty((len(idx), 18), dtype=np.float32)
     e = b["e"][: len(idx)]
-    K.observe(b["state"], idx, frames.rows, frames.origin_in, e, True, cfg.obs_pos_noise,
-              cfg.obs_rot_noise, out)  # fmt: skip
+    got, want = (np.empty((len(idx), 18), dtype=np.float32) for _ in range(2))
+    for impl, out in ((K, got), (NP, want)):
+        impl.observe(b["state"], idx, frames.rows, frames.origin_in, e, True,
+                     cfg.obs_pos_noise, cfg.obs_rot_noise, out)  # fmt: skip
+    np.testing.assert_allclose(got, want, rtol=0, atol=2e-7)
+    # and the numpy form is the task's observation of the perturbed pose
     pos, quat = T.perturb(
         b["state"][idx, 1:4], b["state"][idx, 4:8], e, cfg.obs_pos_noise, cfg.obs_rot_noise
     )
-    np.testing.assert_allclose(out, T.observe(pos, quat, frames[idx]), rtol=0, atol=2e-7)
+    np.testing.assert_array_equal(want, T.observe(pos, quat, frames[idx]))
 
 
 def test_command_clips_scales_and_adds_noise() -> None:
@@ -139,13 +119,15 @@ def test_command_clips_scales_and_adds_noise() -> None:
     e = rng.standard_normal((50, 6), dtype=np.float32)
     scale, std = np.array([0.25] * 3 + [1.5] * 3), np.array([5e-4] * 3 + [0.017] * 3)
     for noisy in (False, True):
-        out = np.empty((50, 6))
-        K.command(actions, e, noisy, scale, std, out)
         want = np.clip(actions, -1, 1) * scale + (e * std if noisy else 0.0)
-        np.testing.assert_array_equal(out, want)
+        for impl in (K, NP):
+            out = np.empty((50, 6))
+            impl.command(actions, e, noisy, scale, std, out)
+            np.testing.assert_array_equal(out, want)
 
 
-def test_scatter_and_gather_follow_the_flat_layout() -> None:
+@pytest.mark.parametrize("impl", [K, NP], ids=["numba", "numpy"])
+def test_scatter_and_gather_follow_the_flat_layout(impl) -> None:
     """Env e's state lives at flat positions flat[e] of the shard states, shifted by its
     offset; gather flags non-finite rows, stalled shards and runaway pegs."""
     rng = np.random.default_rng(5)
@@ -162,7 +144,7 @@ def test_scatter_and_gather_follow_the_flat_layout() -> None:
     velocity = rng.normal(size=(n, 6))
     shard_flat = np.zeros(shards * nshard)
     ctrl = np.zeros((shards, 4, 6 * slots))
-    K.scatter(state, offset, flat, velocity, shard_flat, ctrl)
+    impl.scatter(state, offset, flat, velocity, shard_flat, ctrl)
     np.testing.assert_array_equal(shard_flat[flat], state + offset)
     for e in range(n):
         for t in range(4):
@@ -179,6 +161,32 @@ def test_scatter_and_gather_follow_the_flat_layout() -> None:
     out = np.empty((n, 14))
     unstable = np.empty(n, dtype=bool)
     shard_of = env // slots
-    K.gather(shard_flat, flat, offset, t0, shard_of, np.array([step, dt, speed]), out, unstable)
+    impl.gather(shard_flat, flat, offset, t0, shard_of, np.array([step, dt, speed]), out, unstable)
     np.testing.assert_array_equal(out, shard_flat[flat] - offset)
     assert unstable.tolist() == [True, False, True, True, True]
+
+
+def test_numba_and_numpy_envs_step_alike() -> None:
+    """Whole episodes, noise and resets included, come out the same from either form."""
+    from tests.test_sim_common import modules
+
+    runs = []
+    for kernels in ("numba", "numpy"):
+        cfg = TaskConfig(curriculum_steps=400, max_steps=40)
+        env = PegInHoleVecEnv(list(modules()), 8, cfg, nthread=1, kernels=kernels)
+        assert env.kernels == kernels
+        rng = np.random.default_rng(0)
+        steps = [(env.reset(seed=1),)]
+        for _ in range(150):
+            obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, (8, 6)))
+            steps.append((obs, r, term, trunc, info["success"], info["failure"]))
+        runs.append(steps)
+    ends = 0
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_allclose(a[0], b[0], rtol=0, atol=2e-7)
+        if len(a) > 1:
+            np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-12)
+            for x, y in zip(a[2:], b[2:], strict=True):
+                np.testing.assert_array_equal(x, y)
+            ends += int(a[2].sum() + a[3].sum())
+    assert ends > 0, "some episodes must end (and reset) within the run"

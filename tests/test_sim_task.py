@@ -48,8 +48,9 @@ def test_seat_distance_equals_the_matrix_definition() -> None:
     want = cfg.dist_pos_weight * np.linalg.norm(rel[:, :3, 3], axis=1)
     want += cfg.dist_rot_weight * np.linalg.norm(rel[:, :3, :3] - np.eye(3), axis=(1, 2))
     frames = T.ObsFrames.of(bottom, bottom)
+    weights = cfg.dist_pos_weight, cfg.dist_rot_weight
     got = T.seat_distance(
-        peg[:, :3, 3], _quats(peg), frames.bottom_pos, frames.bottom_quat_conj, cfg
+        peg[:, :3, 3], _quats(peg), frames.bottom_pos, frames.bottom_quat_conj, *weights
     )
     assert got == pytest.approx(want, rel=1e-9, abs=1e-12)
     # at the seat, exactly zero; a 1e-6 rad turn reads as such (no 1 - cos cancellation)
@@ -59,7 +60,7 @@ def test_seat_distance_equals_the_matrix_definition() -> None:
     )
     for pose, rot in ((bottom, 0.0), (turned, np.sqrt(2) * 1e-6)):
         d = T.seat_distance(
-            pose[:, :3, 3], _quats(pose), frames.bottom_pos, frames.bottom_quat_conj, cfg
+            pose[:, :3, 3], _quats(pose), frames.bottom_pos, frames.bottom_quat_conj, *weights
         )
         assert d == pytest.approx(np.full(n, cfg.dist_rot_weight * rot), rel=1e-6, abs=1e-15)
 
