@@ -232,7 +232,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         try:
             return bench_main(args)
-        except (DatasetError, AssetError, ValueError) as e:
+        except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
     if args.what == "assets":
         from assetgen.bench import bench_assets
