@@ -138,8 +138,7 @@ def score(
         quat[unstable] = (1.0, 0.0, 0.0, 0.0)
     c = T.progress(T.seat_distance(pos, quat, bottom_pos, bottom_quat_conj, w_t, w_r), d0)
     r = c - c_prev
-    d = pos - bottom_pos
-    ok = (np.einsum("ni,ni->n", d, d) < radius * radius) & ~unstable
+    ok = T.succeeded(pos, bottom_pos, radius) & ~unstable
     bad = T.failed(pos, quat, vertices, bottom, hole_radius, depth, reach) & ~ok & ~unstable
     # c_T - c_{T-1} + (1 - c_T) = 1 - (return so far): a success's rewards sum to 1.0
     r[ok] = 1.0 - returns[ok]

@@ -161,11 +161,11 @@ def progress(d: np.ndarray, d0: np.ndarray) -> np.ndarray:
     return 1.0 - np.sqrt(d / d0)
 
 
-def succeeded(pos: np.ndarray, bottom_pos: np.ndarray, cfg: TaskConfig) -> np.ndarray:
-    """(n,) bool: the peg frame's origin pos (n, 3) within `success_radius` of the bottom
-    frame's bottom_pos (n, 3)."""
+def succeeded(pos: np.ndarray, bottom_pos: np.ndarray, radius: float) -> np.ndarray:
+    """(n,) bool: the peg frame's origin pos (n, 3) within `radius` (TaskConfig.success_radius)
+    of the bottom frame's origin bottom_pos (n, 3)."""
     d = pos - bottom_pos
-    return np.einsum("ni,ni->n", d, d) < cfg.success_radius**2
+    return np.einsum("ni,ni->n", d, d) < radius * radius
 
 
 def lowest_points(peg: np.ndarray, vertices: np.ndarray) -> np.ndarray:
