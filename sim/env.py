@@ -40,6 +40,7 @@ from sim.config import TaskConfig
 from sim.rotations import matrix_to_quat
 from sim.scene import restitution_to_dampratio
 from sim.step_impl import kernels as step_kernels
+from sim.step_impl import score_params
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -149,10 +150,7 @@ class PegInHoleVecEnv:
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
-        self._score_params = np.array(
-            [cfg.dist_pos_weight, cfg.dist_rot_weight, cfg.success_radius, cfg.failure_depth,
-             cfg.failure_reward, cfg.obs_pos_noise, cfg.obs_rot_noise]
-        )  # fmt: skip
+        self._score_params = score_params(cfg)
         self._no_noise = np.zeros((n, 6), dtype=np.float32)
 
     # ------------------------------------------------------------------ helpers

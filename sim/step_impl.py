@@ -6,6 +6,10 @@ from __future__ import annotations
 
 from types import ModuleType
 
+import numpy as np
+
+from sim.config import TaskConfig
+
 KERNELS = ("auto", "numba", "numpy")
 """Accepted names: auto (numba if it imports, else numpy), numba, numpy."""
 
@@ -29,3 +33,13 @@ def kernels(name: str = "auto") -> ModuleType:
     from sim import step_numpy
 
     return step_numpy
+
+
+def score_params(cfg: TaskConfig) -> np.ndarray:
+    """The `params` array that `score` takes, in its order: dist_pos_weight,
+    dist_rot_weight, success_radius, failure_depth, failure_reward, obs_pos_noise,
+    obs_rot_noise."""
+    return np.array(
+        [cfg.dist_pos_weight, cfg.dist_rot_weight, cfg.success_radius, cfg.failure_depth,
+         cfg.failure_reward, cfg.obs_pos_noise, cfg.obs_rot_noise]
+    )  # fmt: skip

@@ -14,6 +14,7 @@ from sim import step_numpy as NP
 from sim import task as T
 from sim.config import TaskConfig
 from sim.env import PegInHoleVecEnv
+from sim.step_impl import score_params
 
 N = 400
 V = 12
@@ -60,10 +61,7 @@ def _batch(seed: int) -> dict:
 def _score(impl, b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
     """impl.score on batch b: obs, reward, success, failure, returns, c_prev."""
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
-    params = np.array(
-        [cfg.dist_pos_weight, cfg.dist_rot_weight, cfg.success_radius, cfg.failure_depth,
-         cfg.failure_reward, cfg.obs_pos_noise, cfg.obs_rot_noise]
-    )  # fmt: skip
+    params = score_params(cfg)
     obs = np.empty((N, 18), dtype=np.float32)
     reward, success, failure = np.empty(N), np.empty(N, bool), np.empty(N, bool)
     c_prev, returns = b["c_prev"].copy(), b["returns"].copy()
