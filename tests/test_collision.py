@@ -8,7 +8,7 @@ import trimesh
 
 from assetgen.checks import CheckError
 from assetgen.collision import check_pieces, write_collision
-from assetgen.decomposition import exact_pieces, halfspace_vertices_batch
+from assetgen.decomposition import exact_pieces
 from assetgen.geometry import build_module
 from assetgen.module_writer import ExportContext, insertion_travel
 from assetgen.sampler import SamplerConfig, sample_params
@@ -39,8 +39,8 @@ def test_corner_pieces_keep_the_clearance(name, tmp_path):
     g = build_module(CORNERS[name])
     rec = write_collision(ExportContext(tmp_path, g, {}), insertion_travel(g))
     assert rec["volume_ratio"] == pytest.approx(1.0, abs=1e-6)
-    assert abs(rec["clearance_m"] - g.params.clearance) <= 1e-6
-    assert abs(rec["insertion_min_distance_m"] - g.params.clearance) <= 1e-6
+    assert abs(rec["clearance_lower_bound_m"] - g.params.clearance) <= 1e-6
+    assert abs(rec["insertion_lower_bound_m"] - g.params.clearance) <= 1e-6
 
 
 def test_piece_files_read_back(tmp_path):
@@ -84,10 +84,3 @@ def test_corrupt_collision_file_is_named(tmp_path):
     f.write_bytes(b"\0" * 80 + (10).to_bytes(4, "little") + b"\0" * 20)
     with pytest.raises(ValueError, match=r"piece\.stl: header says 10 triangles"):
         read_stl_triangles_mm(f)
-
-
-def test_halfspace_vertices_of_a_cube():
-    eye = np.eye(3)
-    cube = np.vstack([np.column_stack([eye, np.ones(3)]), np.column_stack([-eye, np.ones(3)])])
-    (v,) = halfspace_vertices_batch([cube])
-    assert len(v) == 8 and np.allclose(np.abs(v), 1.0)
