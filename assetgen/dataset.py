@@ -377,9 +377,14 @@ def generate(
 
 
 def _import_exporters(formats: tuple[str, ...]) -> None:
-    """Import what the exporters import lazily (MuJoCo, USD) before forking, so the workers
-    share it instead of each paying ~0.3 s on its first module."""
-    import assetgen.exporters  # registers the formats
+    """Import what the exporters import lazily (MuJoCo, USD) and load the compiled
+    decomposition kernel before forking, so the workers share them instead of each paying
+    ~0.3 s (each) on its first module."""
+    from assetgen.exporters import with_dependencies  # registers the formats
+    from assetgen.triple_vertices import warm_up
+
+    if "collision" in with_dependencies(formats):
+        warm_up()
 
     if "mjcf" in formats:
         import assetgen.mjcf_export

@@ -16,60 +16,22 @@ planes per cell, microseconds each.
 
 from __future__ import annotations
 
-from functools import cache
-from itertools import combinations
-
 import numpy as np
 from scipy.spatial import ConvexHull
 
 from assetgen.geometry import ModuleGeometry
 from assetgen.mesh import Mesh, cross3
 from assetgen.polytope import (
-    interior_point,
     offset_planes,
-    polytope_vertices,
     transform_planes,
 )
+from assetgen.triple_vertices import polytope_vertices_batch
 
 SNAP = 2e-8
 """Grid (m) piece vertices are snapped to: far below the 1 um clearance tolerance, above
 float32 millimetre resolution (~5 nm on a 15 cm plate)."""
 MIN_PIECE_VOLUME = 1e-12
 """Pieces below this volume (m^3, a 0.1 mm cube) are slivers of numerical noise: dropped."""
-
-
-@cache
-def _triples(m: int) -> np.ndarray:
-    return np.array(list(combinations(range(m), 3)), dtype=np.int64)
-
-
-def halfspace_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> list[np.ndarray]:
-    """Vertices of many bounded polytopes {n . x <= d}, each given as (m_i, 4) planes.
-
-    Every plane triple is solved at once (Cramer's rule over all systems, padded with the
-    always-true plane 0 . x <= 1), then kept where it satisfies all of its system's planes.
-    """
-    m = max(len(s) for s in systems)
-    planes = np.zeros((len(systems), m, 4))
-    planes[:, :, 3] = 1.0
-    for i, s in enumerate(systems):
-        planes[i, : len(s)] = s
-    idx = _triples(m)
-    n = planes[:, idx, :3]  # (S, T, 3, 3)
-    d = planes[:, idx, 3]  # (S, T, 3)
-    bc = cross3(n[..., 1, :], n[..., 2, :])
-    ca = cross3(n[..., 2, :], n[..., 0, :])
-    ab = cross3(n[..., 0, :], n[..., 1, :])
-    det = np.einsum("stk,stk->st", n[..., 0, :], bc)
-    # |det| is the conditioning of the triple (unit normals): near-parallel triples give
-    # vertices off by eps / |det|; genuine vertices also come from well-conditioned triples.
-    ok = np.abs(det) > 1e-6
-    safe = np.where(ok, det, 1.0)[..., None]
-    x = (d[..., 0:1] * bc + d[..., 1:2] * ca + d[..., 2:3] * ab) / safe  # (S, T, 3)
-    slack = np.einsum("stk,smk->stm", x, planes[..., :3]) - planes[:, None, :, 3]
-    keep = ok & np.all(slack <= tol, axis=2)
-    # Vertices where more than three planes meet come out several times; the hull merges them.
-    return [x[i, keep[i]] for i in range(len(systems))]
 
 
 def _incidence(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -79,17 +41,16 @@ def _incidence(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
 
 
 def face_neighbours(
-    hole_planes: np.ndarray, offsets: list[np.ndarray], cap: np.ndarray, guess: np.ndarray
+    hole_planes: np.ndarray, offsets: list[np.ndarray], cap: np.ndarray
 ) -> list[np.ndarray]:
     """For each hole plane, the planes sharing a vertex with it in the hole polytope or in any
     of its outward offsets (faces can meet differently once moved out). `cap` (1, 4) closes
-    the polytope above every face; `guess` is a point inside the hole."""
+    the polytope above every face."""
     k = len(hole_planes)
     adjacent = np.zeros((k, k), bool)
-    for off in offsets:
-        planes = np.vstack([offset_planes(hole_planes, off), cap])
-        inside = interior_point(planes, guess)
-        inc = _incidence(planes, polytope_vertices(planes, inside))[:k].astype(int)
+    systems = [np.vstack([offset_planes(hole_planes, off), cap]) for off in offsets]
+    for planes, vertices in zip(systems, polytope_vertices_batch(systems), strict=True):
+        inc = _incidence(planes, vertices)[:k].astype(int)
         adjacent |= (inc @ inc.T) >= 1
     np.fill_diagonal(adjacent, False)
     return [np.flatnonzero(row) for row in adjacent]
@@ -109,45 +70,60 @@ def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.vstack([np.column_stack([eye, hi]), np.column_stack([-eye, -lo])])
 
 
-_ROW = np.dtype([("x", np.float64), ("y", np.float64), ("z", np.float64)])
-
-
-def _unique_rows(v: np.ndarray) -> np.ndarray:
-    """np.unique(v, axis=0) for (n, 3) float64, by the same steps (sort the rows as records,
-    keep the first of each run of equal ones) without its per-call reshaping, which costs
-    more than the sort for the few dozen rows of a piece. Same steps, same rows: of 0.0 and
-    -0.0, which compare equal, the same one is kept, so the files do not change."""
-    rows = np.array(v, dtype=np.float64, order="C").view(_ROW).ravel()  # sorted: a copy
-    rows.sort()
-    keep = np.empty(len(rows), bool)
-    keep[:1] = True
-    keep[1:] = rows[1:] != rows[:-1]
-    return rows[keep].view(np.float64).reshape(-1, 3)
-
-
-def _mesh(vertices: np.ndarray) -> Mesh | None:
-    """The convex hull of `vertices` as an outward-oriented mesh, or None if it has no volume."""
+def _snapped_unique(vertex_sets: list[np.ndarray]) -> list[np.ndarray]:
+    """Each set snapped to the SNAP grid, without repeated rows, sorted lexicographically
+    (x, then y, then z): all sets in one sort instead of one np.unique per piece, whose
+    fixed cost is most of the work for a piece's few dozen rows."""
     # Vertices where several planes meet come out of different triples a few picometres
     # apart; snapped to a 20 nm grid they merge, so no sliver edge collapses when the piece
-    # is stored as float32 millimetres (the clearance is re-measured on the stored piece).
-    vertices = _unique_rows(np.round(vertices / SNAP) * SNAP)
-    if len(vertices) < 4:
-        return None
-    try:
-        hull = ConvexHull(vertices)
-    except Exception:  # coplanar or degenerate: no volume
-        return None
-    if hull.volume < MIN_PIECE_VOLUME:
-        return None
-    faces = hull.simplices
-    # qhull's simplices are unoriented; its facet equations give the outward normals.
-    tri = vertices[faces]
+    # is stored as float32 millimetres (the clearance is re-checked on the stored piece).
+    # + 0.0 turns -0.0 into 0.0: equal coordinates are stored with one sign.
+    counts = np.array([len(v) for v in vertex_sets])
+    v = np.round(np.vstack([*vertex_sets, np.zeros((0, 3))]) / SNAP) * SNAP + 0.0
+    owner = np.repeat(np.arange(len(vertex_sets)), counts)
+    order = np.lexsort((v[:, 2], v[:, 1], v[:, 0], owner))
+    v, owner = v[order], owner[order]
+    keep = np.ones(len(v), bool)
+    keep[1:] = (owner[1:] != owner[:-1]) | np.any(v[1:] != v[:-1], axis=1)
+    v, owner = v[keep], owner[keep]
+    bounds = np.searchsorted(owner, np.arange(len(vertex_sets) + 1))
+    return [v[bounds[i] : bounds[i + 1]] for i in range(len(vertex_sets))]
+
+
+def _meshes(vertex_sets: list[np.ndarray]) -> list[Mesh]:
+    """The convex hull of each vertex set as an outward-oriented mesh; sets with no volume
+    (fewer than 4 distinct points, flat, or a sliver below MIN_PIECE_VOLUME) are dropped."""
+    hulls = []
+    for vertices in _snapped_unique(vertex_sets):
+        if len(vertices) < 4:
+            continue
+        try:
+            hull = ConvexHull(vertices)
+        except Exception:  # coplanar or degenerate: no volume
+            continue
+        if hull.volume >= MIN_PIECE_VOLUME:
+            hulls.append((vertices, hull))
+    if not hulls:
+        return []
+    # qhull's simplices are unoriented; its facet equations give the outward normals. One
+    # pass over every piece's triangles instead of a few numpy calls per piece.
+    nv = np.array([len(v) for v, _ in hulls])
+    voff = np.concatenate([[0], np.cumsum(nv)[:-1]])
+    faces = np.vstack([h.simplices + o for (_, h), o in zip(hulls, voff, strict=True)])
+    tri = np.vstack([v for v, _ in hulls])[faces]
     normal = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    flip = np.einsum("ij,ij->i", normal, hull.equations[:, :3]) < 0
+    outward = np.vstack([h.equations[:, :3] for _, h in hulls])
+    flip = np.einsum("ij,ij->i", normal, outward) < 0
     faces = np.where(flip[:, None], faces[:, ::-1], faces)
-    remap = np.empty(len(vertices), np.int64)
-    remap[hull.vertices] = np.arange(len(hull.vertices))
-    return Mesh(vertices[hull.vertices], remap[faces])
+    meshes, start = [], 0
+    for (vertices, hull), o in zip(hulls, voff, strict=True):
+        end = start + len(hull.simplices)
+        # keep only the hull's vertices (points inside a face are dropped), renumbered
+        remap = np.empty(len(vertices), np.int64)
+        remap[hull.vertices] = np.arange(len(hull.vertices))
+        meshes.append(Mesh(vertices[hull.vertices], remap[faces[start:end] - o]))
+        start = end
+    return meshes
 
 
 def local_footprint(geom: ModuleGeometry) -> tuple[np.ndarray, np.ndarray]:
@@ -155,7 +131,7 @@ def local_footprint(geom: ModuleGeometry) -> tuple[np.ndarray, np.ndarray]:
     p = geom.params
     t = p.plate_thickness
     slab = np.vstack([geom.hole_planes, [[0.0, 0.0, 1.0, 0.0]], [[0.0, 0.0, -1.0, t]]])
-    v = polytope_vertices(slab, interior_point(slab, np.array([p.hole_x, p.hole_y, -t / 2])))
+    (v,) = polytope_vertices_batch([slab])
     half = p.plate_size / 2
     lo = np.maximum(v[:, :2].min(axis=0) - p.sleeve_wall, -half)
     hi = np.minimum(v[:, :2].max(axis=0) + p.sleeve_wall, half)
@@ -176,9 +152,7 @@ def exact_pieces(geom: ModuleGeometry) -> list[Mesh]:
     cap = transform_planes(
         np.array([[0.0, 0.0, 1.0, p.peg_height + 0.05]]), geom.design_pose.matrix()
     )
-    design = geom.design_pose.matrix()
-    guess = design[:3, 3] + 0.5 * p.hole_depth * design[:3, 2]
-    nbrs = face_neighbours(hp, [np.zeros(k), walls], cap, guess)
+    nbrs = face_neighbours(hp, [np.zeros(k), walls], cap)
 
     systems: list[np.ndarray] = []
     lo, hi = local_footprint(geom)
@@ -203,24 +177,4 @@ def exact_pieces(geom: ModuleGeometry) -> list[Mesh]:
         # neighbours' and the floor's (thickness may differ from the wall's) can bind.
         rows = np.unique(np.concatenate([[i, k - 1], nbrs[i]]))
         systems.append(np.vstack([mitred[rows], box_and_floor, cell]))
-    return [m for m in map(_mesh, _solve_all(systems)) if m is not None]
-
-
-BATCH_MAX_PLANES = 24
-"""Systems up to this many planes go through the batched triple solver; larger ones (the
-floor's cell borders every side face) through qhull, whose cost grows more gently."""
-
-
-def _solve_all(systems: list[np.ndarray]) -> list[np.ndarray]:
-    out: list[np.ndarray | None] = [None] * len(systems)
-    by_size: dict[int, list[int]] = {}
-    for i, s in enumerate(systems):
-        if len(s) <= BATCH_MAX_PLANES:
-            by_size.setdefault(len(s), []).append(i)
-        else:
-            inside = interior_point(s)
-            out[i] = polytope_vertices(s, inside) if inside is not None else np.zeros((0, 3))
-    for group in by_size.values():
-        for i, v in zip(group, halfspace_vertices_batch([systems[i] for i in group]), strict=True):
-            out[i] = v
-    return out  # type: ignore[return-value]
+    return _meshes(polytope_vertices_batch(systems))
