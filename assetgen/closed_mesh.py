@@ -102,17 +102,27 @@ def _convex_by_own_planes(
     area2 = np.linalg.norm(normal, axis=1)
     longest = np.sqrt(np.max(((tri - np.roll(tri, 1, axis=1)) ** 2).sum(axis=2), axis=1))
     good = area2 >= MIN_PLANE_ALTITUDE * np.maximum(longest, 1e-300)
+    # Every vertex against every good plane of its own mesh, as one flat list of pairs
+    # grouped by vertex (a few thousand), instead of a few numpy calls per mesh.
     meshes = len(voff) - 1
-    proven = np.zeros(meshes, bool)
-    for i in range(meshes):  # per mesh: a (vertices x planes) product of a few hundred values
-        sel = good & (owner == i)
-        if not sel.any():
-            continue
-        n = normal[sel] / area2[sel, None]
-        d = np.einsum("ij,ij->i", n, tri[sel, 0])
-        height = (vertices[voff[i] : voff[i + 1]] @ n.T - d).max(axis=1)
-        t = CONVEX_TOLERANCE / 2
-        proven[i] = bool(height.max() <= t and height.min() >= -t)
+    gf = np.flatnonzero(good)  # faces come grouped by mesh, so these do too
+    n = normal[gf] / area2[gf, None]
+    d = np.einsum("ij,ij->i", n, tri[gf, 0])
+    planes_of = np.bincount(owner[gf], minlength=meshes)  # good planes per mesh
+    first_plane = np.cumsum(planes_of) - planes_of
+    vertex_owner = np.repeat(np.arange(meshes), np.diff(voff))
+    reps = planes_of[vertex_owner]  # planes each vertex is tested against
+    first_pair = np.cumsum(reps) - reps
+    pv = np.repeat(np.arange(len(vertices)), reps)
+    pp = first_plane[vertex_owner[pv]] + np.arange(len(pv)) - np.repeat(first_pair, reps)
+    height = np.einsum("ij,ij->i", vertices[pv], n[pp]) - d[pp]
+    tested = reps > 0
+    highest = np.zeros(len(vertices))
+    if tested.any():
+        highest[tested] = np.maximum.reduceat(height, first_pair[tested])
+    t = CONVEX_TOLERANCE / 2
+    within = (highest <= t) & (highest >= -t)
+    proven = np.logical_and.reduceat(within, voff[:-1]) & (planes_of > 0)
     return proven
 
 

@@ -51,13 +51,14 @@ def _mjcf(ctx: ExportContext) -> None:
 
 def _write_mjcf(ctx: ExportContext) -> None:
     from assetgen.frames import Frame
-    from assetgen.mjcf_export import write_mjcf
+    from assetgen.mjcf_export import mjcf_document
 
     g, peg = ctx.geometry, ctx.record["peg"]
-    # write_mjcf checks the peg and each piece is closed and convex, and compiles the model
-    # once in MuJoCo before renaming the file into place, all on the bytes just written.
-    xml = write_mjcf(
-        ctx.folder / MJCF_FILE,
+    # mjcf_document checks the peg and each piece is closed and convex, and compiles the
+    # model in MuJoCo, all on the bytes just written (and the triangles parsed from them).
+    # The file is written straight: the module folder is renamed into place only when done.
+    xml = mjcf_document(
+        ctx.folder,
         peg_file="peg.stl",
         piece_files=ctx.record["collision"]["pieces"],
         entrance=g.entrance,
@@ -68,8 +69,10 @@ def _write_mjcf(ctx: ExportContext) -> None:
         peg_inertia=np.array(peg["inertia_kg_m2"]),
         clearance=g.params.clearance,
         written=ctx.data,
+        parsed=ctx.parsed,
+        name=MJCF_FILE,
     )
-    ctx.add_file(MJCF_FILE, xml)
+    ctx.write(MJCF_FILE, xml)
 
 
 EXPORTERS["collision"] = _collision

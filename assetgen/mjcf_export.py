@@ -40,7 +40,13 @@ from assetgen.stl import merge_vertices, parse_stl_triangles_mm
 
 MM = 0.001
 """Metres per STL unit (the STL files are millimetres)."""
-__all__ = ["CONVEX_TOLERANCE", "ContactConfig", "read_checked_mesh", "write_mjcf"]
+__all__ = [
+    "CONVEX_TOLERANCE",
+    "ContactConfig",
+    "mjcf_document",
+    "read_checked_mesh",
+    "write_mjcf",
+]
 CLEARANCE_NUMERIC = "clearance"
 """Name of the `<numeric>` custom field holding the clearance (m)."""
 PEG_BODY = "peg"
@@ -173,12 +179,22 @@ def read_checked_mesh(path: Path, name: str, *, convex: bool = True) -> Mesh:
     return mesh
 
 
-def checked_meshes(data: Mapping[str, bytes], *, convex: bool = True) -> list[Mesh]:
+def checked_meshes(
+    data: Mapping[str, bytes],
+    *,
+    convex: bool = True,
+    parsed: Mapping[str, np.ndarray] | None = None,
+) -> list[Mesh]:
     """The binary millimetre STL bytes in `data` (by name) as Meshes (metres), each checked to
-    be a closed (and with `convex`, convex) solid, all at once; ValueError names a bad one."""
+    be a closed (and with `convex`, convex) solid, all at once; ValueError names a bad one.
+    `parsed` may hold the triangles of some of them, already parsed from these bytes."""
     names = list(data)
+    parsed = parsed or {}
     tris = []
     for name in names:
+        if name in parsed:
+            tris.append(parsed[name])
+            continue
         try:
             tris.append(parse_stl_triangles_mm(data[name], name))
         except ValueError as e:
@@ -335,8 +351,30 @@ def mjcf_text(
     return "\n".join(lines)
 
 
-def write_mjcf(
-    path: Path,
+def write_mjcf(path: Path, **document) -> bytes:
+    """Write the module's MJCF to `path` atomically after checking every input.
+
+    path       : the .xml to write; its folder holds the mesh files, which the keyword
+                 arguments (see mjcf_document) name relative to it.
+    **document : mjcf_document's arguments.
+
+    Raises ValueError as mjcf_document does; nothing is written then. A temporary name in
+    the same folder is renamed onto `path`, so a half-written XML never carries the final
+    name. Returns the bytes written (to hash without reading the file back).
+    """
+    path = Path(path)
+    data = mjcf_document(path.parent, name=path.name, **document)
+    tmp = path.parent / f".{path.stem}.{os.getpid()}.tmp.xml"
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return data
+
+
+def mjcf_document(
+    folder: Path,
     *,
     peg_file: str,
     piece_files: list[str],
@@ -349,11 +387,13 @@ def write_mjcf(
     clearance: float,
     contact: ContactConfig = ContactConfig(),
     written: Mapping[str, bytes] | None = None,
+    parsed: Mapping[str, np.ndarray] | None = None,
+    name: str = "the MJCF",
 ) -> bytes:
-    """Write the module's MJCF to `path` (atomically) after checking every input.
+    """The module's MJCF as bytes, after checking every input and compiling it in MuJoCo.
 
-    path        : the .xml to write; its folder holds the mesh files.
-    peg_file    : peg STL (binary, mm, peg frame), relative to path's folder.
+    folder      : the folder the XML will sit in, which holds the mesh files.
+    peg_file    : peg STL (binary, mm, peg frame), relative to `folder`.
     piece_files : collision piece STLs (binary, mm, module frame, each convex), relative.
     entrance, bottom : the module's frames (module frame, m, quat w x y z).
     peg_pose    : initial pose of the peg frame in the module frame.
@@ -364,13 +404,16 @@ def write_mjcf(
     written     : the bytes of mesh files just written, by name (the module writer's): they
                   are checked and compiled instead of reading the files back, which costs
                   as much as the checks; files not in it are read.
+    parsed      : their triangles (m, 3, 3) in metres, where already parsed from those
+                  bytes (parse_stl_triangles_mm), so they are not parsed again.
+    name        : how error messages name the document.
 
     Raises ValueError naming the file or value and the problem (missing or corrupt STL, not
-    watertight, not convex, bad frame or mass properties, or a model MuJoCo refuses); nothing
-    is written then. The written file is compiled by MuJoCo before it replaces `path`.
-    Returns the bytes written (to hash without reading the file back).
+    watertight, not convex, bad frame or mass properties, or a model MuJoCo refuses). The
+    model is compiled from these bytes and the mesh bytes (no file is read twice), so the
+    document returned is one MuJoCo accepts.
     """
-    path = Path(path)
+    folder = Path(folder)
     contact.validate()
     if not (isinstance(clearance, int | float | np.floating) and 0 < clearance < 0.1):
         raise ValueError(f"clearance = {clearance!r}; expected a gap in metres, 0 < c < 0.1")
@@ -378,7 +421,6 @@ def write_mjcf(
         raise ValueError("piece_files is empty; the module needs at least one collision piece")
     if len(set(piece_files)) != len(piece_files):
         raise ValueError(f"piece_files lists a file twice: {piece_files}")
-    folder = path.parent
     written = written or {}
     data: dict[str, bytes] = {}
     for name in [peg_file, *piece_files]:
@@ -386,7 +428,7 @@ def write_mjcf(
             raise ValueError(f"{name}: must be relative to the MJCF's folder {folder}")
         data[name] = written[name] if name in written else _read(folder / name, name)
     # every mesh is a convex solid: MuJoCo collides a mesh as its convex hull
-    checked_meshes(data, convex=True)
+    checked_meshes(data, convex=True, parsed=parsed)
     text = mjcf_text(
         peg_file=peg_file,
         piece_files=piece_files,
@@ -399,22 +441,12 @@ def write_mjcf(
         clearance=float(clearance),
         contact=contact,
     )
-    # temp name in the same folder: relative mesh paths resolve as for the final file, and
-    # os.replace is atomic there, so a half-written XML never carries the final name
-    tmp = folder / f".{path.stem}.{os.getpid()}.tmp.xml"
     try:
-        data_xml = text.encode("utf-8")
-        tmp.write_bytes(data_xml)
-        try:
-            # Compiled from the checked bytes (the files hold the same): no file is read again.
-            model = mujoco.MjModel.from_xml_string(text, data)
-        except ValueError as e:
-            raise ValueError(f"{path.name}: MuJoCo refuses the model: {e}") from None
-        _check_compiled(model, peg_pose)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return data_xml
+        model = mujoco.MjModel.from_xml_string(text, data)
+    except ValueError as e:
+        raise ValueError(f"{name}: MuJoCo refuses the model: {e}") from None
+    _check_compiled(model, peg_pose)
+    return text.encode("utf-8")
 
 
 def _check_compiled(model: mujoco.MjModel, peg_pose: Frame) -> None:

@@ -54,6 +54,9 @@ class ExportContext:
     data: dict[str, bytes] = field(default_factory=dict)
     """The bytes of every file written with `write`, by the same path: later checks use
     exactly what is on disk without reading it back."""
+    parsed: dict[str, np.ndarray] = field(default_factory=dict)
+    """Triangles (m, 3, 3) in metres of written STL files parsed back so far, by path: a
+    later step that checks them again does not parse them again."""
     pieces: list | None = None
     """The convex collision pieces (module frame, m) once the `collision` step has run."""
     times: StepTimes | None = None
