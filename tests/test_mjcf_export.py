@@ -398,3 +398,47 @@ def test_same_input_same_bytes(good_module, tmp_path) -> None:
     a = export(_copy(good_module, tmp_path / "a")).read_bytes()
     b = export(_copy(good_module, tmp_path / "b")).read_bytes()
     assert a == b
+
+
+def test_model_mujoco_refuses_is_named_and_not_written(good_module, tmp_path, monkeypatch) -> None:
+    import assetgen.mjcf_export as mjcf_export
+
+    module = _copy(good_module, tmp_path / "m")
+    text = mjcf_export.mjcf_text
+    # A document our checks pass but MuJoCo's compiler does not: a geom naming no mesh.
+    monkeypatch.setattr(
+        mjcf_export,
+        "mjcf_text",
+        lambda **kw: text(**kw).replace('mesh="piece_000"/>', 'mesh="no_such_mesh"/>'),
+    )
+    with pytest.raises(ValueError, match=r"peg_in_hole\.xml: MuJoCo refuses the model"):
+        export(module)
+    _assert_nothing_written(module)
+
+
+def test_document_from_bytes_in_memory_equals_the_file(good_module, tmp_path) -> None:
+    """The module writer's path (bytes and parsed triangles handed over, nothing read back)
+    gives the bytes write_mjcf writes after reading the mesh files."""
+    from assetgen.mjcf_export import mjcf_document
+    from assetgen.stl import parse_stl_triangles_mm
+
+    module = _copy(good_module, tmp_path / "m")
+    written = export(module).read_bytes()
+    names = ["peg.stl", *module.piece_files]
+    data = {n: (module.folder / n).read_bytes() for n in names}
+    com, inertia = peg_mass_properties()
+    doc = mjcf_document(
+        tmp_path / "elsewhere",  # nothing is read from the folder when every mesh is given
+        peg_file="peg.stl",
+        piece_files=module.piece_files,
+        entrance=module.entrance,
+        bottom=module.bottom,
+        peg_pose=module.design,
+        peg_mass=PEG_MASS,
+        peg_com=com,
+        peg_inertia=inertia,
+        clearance=CLEARANCE,
+        written=data,
+        parsed={n: parse_stl_triangles_mm(b, n) for n, b in data.items()},
+    )
+    assert doc == written
