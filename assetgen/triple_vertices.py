@@ -17,7 +17,6 @@ snapped to a 20 nm grid afterwards (assetgen.decomposition.SNAP), which absorbs 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 DET_MIN = 1e-6
 """|det| of a triple of unit normals below this: near-parallel planes, skipped. Their
@@ -25,7 +24,6 @@ vertices would be off by eps / |det|; genuine vertices also come from well-condi
 triples."""
 
 
-@njit(cache=True)
 def _enumerate(planes, starts, sizes, tol, out, owner):  # pragma: no cover - compiled
     found = 0
     for s in range(len(sizes)):
@@ -67,6 +65,20 @@ def _enumerate(planes, starts, sizes, tol, out, owner):  # pragma: no cover - co
     return found
 
 
+_KERNEL = None
+
+
+def _compiled():
+    """_enumerate compiled (numba, cached on disk). Imported on first use: numba's import
+    costs ~0.9 s, which commands that generate nothing (a cached re-run) should not pay."""
+    global _KERNEL
+    if _KERNEL is None:
+        from numba import njit
+
+        _KERNEL = njit(cache=True)(_enumerate)
+    return _KERNEL
+
+
 def polytope_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> list[np.ndarray]:
     """Vertices of each bounded polytope {n . x <= d} given as (m_i, 4) planes (unit normals).
 
@@ -81,7 +93,7 @@ def polytope_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> li
     capacity = int((sizes * (sizes - 1) * (sizes - 2) // 6).sum())
     out = np.empty((capacity, 3))
     owner = np.empty(capacity, np.int64)
-    found = _enumerate(planes, starts, sizes, tol, out, owner)
+    found = _compiled()(planes, starts, sizes, tol, out, owner)
     bounds = np.searchsorted(owner[:found], np.arange(len(systems) + 1))
     return [out[bounds[i] : bounds[i + 1]] for i in range(len(systems))]
 

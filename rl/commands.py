@@ -35,8 +35,7 @@ def add_train_parser(
     subparsers: argparse._SubParsersAction, make_env: MakeEnv
 ) -> argparse.ArgumentParser:
     """Register `train` on an argparse subparsers object."""
-    from rl.presets import PRESETS
-    from rl.runner import ALGOS
+    from rl.names import ALGO_NAMES, PRESET_NAMES
 
     p = subparsers.add_parser(
         "train",
@@ -44,7 +43,7 @@ def add_train_parser(
         description="Train an agent on the vector env; progress bar, metrics.csv, TensorBoard "
         "and checkpoints in --out. --resume continues a run exactly (see rl/runner.py).",
     )
-    p.add_argument("--algo", choices=sorted(ALGOS), required=True, help="algorithm")
+    p.add_argument("--algo", choices=ALGO_NAMES, required=True, help="algorithm")
     p.add_argument(
         "--stack",
         type=int,
@@ -54,7 +53,7 @@ def add_train_parser(
     p.add_argument("--dataset", required=True, help="dataset spec name or folder")
     p.add_argument(
         "--preset",
-        choices=sorted(PRESETS),
+        choices=PRESET_NAMES,
         default="cpu",
         help="hyperparameter preset (rl/presets.py; default cpu)",
     )

@@ -158,3 +158,22 @@ def test_train_then_evaluate_the_checkpoint_on_every_module(tiny_dataset, tmp_pa
 def test_eval_missing_dataset(tmp_path):
     p = run("eval", "--agent", "scripted", "--dataset", str(tmp_path / "nope"))
     assert p.returncode != 0 and "is not a dataset" in p.stderr
+
+
+def test_commands_start_without_importing_torch():
+    """Building the parsers (every command does) must not import torch (~1.4 s): `train`
+    takes its choices from rl.names, which must stay in step with what they name."""
+    pytest.importorskip("torch")
+    code = (
+        "import sys, cli; p = cli.build_parser(); "
+        "assert 'torch' not in sys.modules, 'torch imported'; "
+        "p.parse_args(['train', '--algo', 'sac', '--dataset', 'x', '--out', 'y'])"
+    )
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    from rl.names import ALGO_NAMES, PRESET_NAMES
+    from rl.presets import PRESETS
+    from rl.runner import ALGOS
+
+    assert sorted(ALGO_NAMES) == sorted(ALGOS)
+    assert sorted(PRESET_NAMES) == sorted(PRESETS)
