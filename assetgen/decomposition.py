@@ -10,8 +10,9 @@ the largest s_i is positive, so the material splits exactly into the convex cell
 plane, so no piece comes nearer the seated peg than the clearance, and the cells do not
 overlap, so their volumes add up to the module's (checked). The material is the plate near
 the hole (a local box; the far plate is four plain boxes, so a broadphase prunes them) and
-the sleeve below it. Cells are computed by enumerating plane triples, vectorised: a dozen
-planes per cell, microseconds each.
+the sleeve below it. Cells' vertices come from enumerating plane triples in one compiled
+loop over all of a module's cells (assetgen.triple_vertices: 6 - 71 planes a cell, ~0.7 ms
+a module in all); their hulls from qhull.
 """
 
 from __future__ import annotations

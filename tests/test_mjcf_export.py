@@ -140,9 +140,10 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
     )
 
 
-def export(module: SyntheticModule, contact: ContactConfig = ContactConfig(), **kw) -> Path:  # noqa: B008
+def document_args(module: SyntheticModule) -> dict:
+    """write_mjcf's / mjcf_document's keyword arguments for `module`."""
     com, inertia = peg_mass_properties()
-    args = dict(
+    return dict(
         peg_file="peg.stl",
         piece_files=module.piece_files,
         entrance=module.entrance,
@@ -152,9 +153,11 @@ def export(module: SyntheticModule, contact: ContactConfig = ContactConfig(), **
         peg_com=com,
         peg_inertia=inertia,
         clearance=CLEARANCE,
-        contact=contact,
     )
-    args.update(kw)
+
+
+def export(module: SyntheticModule, contact: ContactConfig = ContactConfig(), **kw) -> Path:  # noqa: B008
+    args = {**document_args(module), "contact": contact, **kw}
     path = module.folder / "peg_in_hole.xml"
     write_mjcf(path, **args)
     return path
@@ -426,18 +429,9 @@ def test_document_from_bytes_in_memory_equals_the_file(good_module, tmp_path) ->
     written = export(module).read_bytes()
     names = ["peg.stl", *module.piece_files]
     data = {n: (module.folder / n).read_bytes() for n in names}
-    com, inertia = peg_mass_properties()
     doc = mjcf_document(
         tmp_path / "elsewhere",  # nothing is read from the folder when every mesh is given
-        peg_file="peg.stl",
-        piece_files=module.piece_files,
-        entrance=module.entrance,
-        bottom=module.bottom,
-        peg_pose=module.design,
-        peg_mass=PEG_MASS,
-        peg_com=com,
-        peg_inertia=inertia,
-        clearance=CLEARANCE,
+        **document_args(module),
         written=data,
         parsed={n: parse_stl_triangles_mm(b, n) for n, b in data.items()},
     )
