@@ -1,6 +1,6 @@
 """Vertices of small bounded polytopes {n . x <= d} by enumerating plane triples, compiled.
 
-A module's exact decomposition cuts ~30 cells of 6 - 23 planes each. Every triple of a
+A module's exact decomposition cuts ~30 cells of 6 - 71 planes each. Every triple of a
 cell's planes is solved (Cramer's rule) and the point kept if it satisfies all the cell's
 planes. As numpy over all triples at once this took ~3.4 ms a module, mostly temporaries of
 (systems, triples, planes) shape; one compiled loop that stops testing a point at the first
@@ -11,7 +11,9 @@ many tiny vertex enumerations at once: qhull's HalfspaceIntersection needs an in
 Arithmetic: the same operations as the numpy form it replaced, in the same order where
 numpy's order is defined (cross products, Cramer's sums); its dot products (einsum) summed
 in an order numpy does not fix, so a coordinate may differ in its last bit. The vertices are
-snapped to a 20 nm grid afterwards (assetgen.decomposition.SNAP), which absorbs that.
+snapped to a 20 nm grid afterwards (assetgen.decomposition.SNAP), which absorbs that: the
+pieces of seeds 0 - 299 (9510) came out the same as with the numpy form, up to the sign of
+zero (which the decomposition now normalises).
 """
 
 from __future__ import annotations
