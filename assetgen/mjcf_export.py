@@ -444,7 +444,7 @@ def mjcf_document(
     try:
         spec = mujoco.MjSpec.from_string(text, assets=data)
         # The document as written, compiled with MuJoCo's mesh thread pool off: for ~30 small
-        # meshes the threads cost more than they save (compile 4.9 - 6.6 ms against 7.3 -
+        # meshes the threads cost more than they save (compile 4.9 - 6.5 ms against 7.3 -
         # 8.0 ms a module in one sitting), and a dataset's workers already fill the cores.
         # The compiled model is the same, array for array.
         spec.compiler.usethread = False
