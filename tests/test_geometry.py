@@ -9,7 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from assetgen.checks import CheckError, verify
+from assetgen.checks import CheckError, _distance, _fcl_convex, _fcl_object, _swept_hull, verify
 from assetgen.geometry import build_module, cross_section, peg_planes
 from assetgen.mesh import Mesh
 from assetgen.module_writer import insertion_travel, write_module
@@ -122,6 +122,23 @@ def test_clearance_is_exact_for_any_value(params, clearance):
     g = build_module(replace(params, clearance=clearance))
     gaps = verify(g.peg, g.module, g.design_pose, clearance, insertion_travel(g))
     assert abs(gaps["clearance_m"] - clearance) <= 1e-6
+
+
+@pytest.mark.parametrize("name", ["3-gon aspect 0.25 taper 25% tilts 15deg", "32-gon"])
+def test_convex_distance_agrees_with_triangle_distance(name):
+    """The checks measure the convex peg and its sweeps with GJK (fcl.Convex); the same
+    meshes as triangle BVHs give the same distances within 10 nm (the tolerance is 1 um)."""
+    g = build_module(CORNERS[name])
+    module = _fcl_object(g.module)
+    design = g.design_pose.matrix()
+    for lift in (0.0, 2e-4, 0.01, -5e-4):  # seated, lifted, above the plate, touching walls
+        pose = design.copy()
+        pose[:3, 3] += lift * design[:3, 2]
+        swept = _swept_hull(g.peg, pose, design)
+        for body, m in ((g.peg, pose), (swept, None)):
+            gjk = _distance(_fcl_convex(body, m), module)
+            triangles = _distance(_fcl_object(body, m), module)
+            assert abs(gjk - triangles) <= 1e-8, (lift, gjk, triangles)
 
 
 def test_peg_faces_lie_on_their_planes():
