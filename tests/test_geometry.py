@@ -131,7 +131,7 @@ def test_convex_distance_agrees_with_triangle_distance(name):
     g = build_module(CORNERS[name])
     module = _fcl_object(g.module)
     design = g.design_pose.matrix()
-    for lift in (0.0, 2e-4, 0.01, -5e-4):  # seated, lifted, above the plate, touching walls
+    for lift in (0.0, 2e-4, 0.01, -5e-4):  # seated, lifted, above the plate, halfway to the floor
         pose = design.copy()
         pose[:3, 3] += lift * design[:3, 2]
         swept = _swept_hull(g.peg, pose, design)
