@@ -97,6 +97,14 @@ def _distance(a: fcl.CollisionObject, b: fcl.CollisionObject) -> float:
     return float(fcl.distance(a, b, fcl.DistanceRequest(), fcl.DistanceResult()))
 
 
+def lifted(pose: np.ndarray, distance: float) -> np.ndarray:
+    """The (4, 4) pose moved by `distance` (m) along its own z axis (the hole axis for the
+    peg's design pose): where the straight insertion starts, or how far down it goes."""
+    out = pose.copy()
+    out[:3, 3] += distance * pose[:3, 2]
+    return out
+
+
 def _swept_hull(peg: Mesh, start: np.ndarray, end: np.ndarray) -> Mesh:
     """The volume a convex peg sweeps moving straight from pose `start` to pose `end`.
 
@@ -118,16 +126,11 @@ def clearance_checks(
     travel : how far above the design pose (along the hole axis) the insertion starts.
     """
     m_design = design.matrix()
-    axis = m_design[:3, 2]
     module_obj = _fcl_object(module)
     gap = _distance(_fcl_convex(peg, m_design), module_obj)
-
-    m_start = m_design.copy()
-    m_start[:3, 3] += travel * axis
+    m_start = lifted(m_design, travel)
     insertion = _distance(_fcl_convex(_swept_hull(peg, m_start, m_design)), module_obj)
-
-    m_seat = m_design.copy()
-    m_seat[:3, 3] -= (clearance - SEAT_PROBE) * axis
+    m_seat = lifted(m_design, -(clearance - SEAT_PROBE))
     seat = _distance(_fcl_convex(_swept_hull(peg, m_design, m_seat)), module_obj)
     return {
         "clearance_m": gap,

@@ -12,7 +12,14 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from assetgen.checks import CLEARANCE_TOLERANCE, CheckError, _distance, _fcl_object, _swept_hull
+from assetgen.checks import (
+    CLEARANCE_TOLERANCE,
+    CheckError,
+    _distance,
+    _fcl_object,
+    _swept_hull,
+    lifted,
+)
 from assetgen.coacd_decomposition import coacd_pieces
 from assetgen.decomposition import exact_pieces
 from assetgen.geometry import ModuleGeometry
@@ -61,8 +68,7 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
     """
     c = geom.params.clearance
     design = geom.design_pose.matrix()
-    start = design.copy()
-    start[:3, 3] += travel * design[:3, 2]
+    start = lifted(design, travel)
     seated = peg.transformed(design).vertices
     # A convex peg moving straight sweeps the hull of its two end poses, whose points are
     # convex combinations of the peg's vertices at both ends: those vertices are the body.

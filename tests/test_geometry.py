@@ -9,7 +9,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from assetgen.checks import CheckError, _distance, _fcl_convex, _fcl_object, _swept_hull, verify
+from assetgen.checks import (
+    CheckError,
+    _distance,
+    _fcl_convex,
+    _fcl_object,
+    _swept_hull,
+    lifted,
+    verify,
+)
 from assetgen.geometry import build_module, cross_section, peg_planes
 from assetgen.mesh import Mesh
 from assetgen.module_writer import insertion_travel, write_module
@@ -132,8 +140,7 @@ def test_convex_distance_agrees_with_triangle_distance(name):
     module = _fcl_object(g.module)
     design = g.design_pose.matrix()
     for lift in (0.0, 2e-4, 0.01, -5e-4):  # seated, lifted, above the plate, halfway to the floor
-        pose = design.copy()
-        pose[:3, 3] += lift * design[:3, 2]
+        pose = lifted(design, lift)
         swept = _swept_hull(g.peg, pose, design)
         for body, m in ((g.peg, pose), (swept, None)):
             gjk = _distance(_fcl_convex(body, m), module)

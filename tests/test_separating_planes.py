@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import assetgen.collision as collision
-from assetgen.checks import _distance, _fcl_object, _swept_hull
+from assetgen.checks import _distance, _fcl_object, _swept_hull, lifted
 from assetgen.decomposition import exact_pieces
 from assetgen.geometry import build_module
 from assetgen.mesh import Mesh
@@ -65,8 +65,7 @@ def test_edge_crosses_separate_what_no_face_normal_separates():
 def test_bound_is_tight_on_the_stored_exact_pieces(name):
     g = build_module(CORNERS[name])
     design = g.design_pose.matrix()
-    start = design.copy()
-    start[:3, 3] += insertion_travel(g) * design[:3, 2]
+    start = lifted(design, insertion_travel(g))
     seated = g.peg.transformed(design).vertices
     swept = np.vstack([g.peg.transformed(start).vertices, seated])
     stored = [parse_stl_triangles_mm(stl_bytes(m)).reshape(-1, 3) for m in exact_pieces(g)]
