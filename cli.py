@@ -24,16 +24,16 @@ def _err(msg: str) -> int:
 
 
 def _sample_spec(args: argparse.Namespace):
-    from assetgen.dataset import DatasetError, DatasetSpec, resolve
-    from assetgen.exporters import available_formats
-    from assetgen.sampler import SamplerConfig
+    from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
+    from assetgen.formats.registry import available_formats
+    from assetgen.params.sampler import SamplerConfig
 
     if args.dataset:
         if args.out or args.n is not None:
             raise DatasetError("give either --dataset or --n/--seed/--out, not both")
         root, spec = resolve(args.dataset)
         if spec is None:
-            from assetgen.dataset import Dataset
+            from assetgen.dataset.reader import Dataset
 
             spec = Dataset(root).spec
         return root, spec
@@ -54,8 +54,9 @@ def _sample_spec(args: argparse.Namespace):
 
 
 def cmd_sample(args: argparse.Namespace) -> int:
-    from assetgen.dataset import DatasetError, generate
-    from assetgen.params import ParamError
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetError
+    from assetgen.params.module_params import ParamError
 
     try:
         root, spec = _sample_spec(args)
@@ -88,7 +89,7 @@ def cmd_sample(args: argparse.Namespace) -> int:
 
 
 def _check_writable(root: Path) -> None:
-    from assetgen.dataset import DatasetError
+    from assetgen.dataset.spec import DatasetError
 
     probe = root
     while not probe.exists():
@@ -100,15 +101,15 @@ def _check_writable(root: Path) -> None:
 
 
 def _open_dataset(name: str):
-    from assetgen.dataset import resolve
+    from assetgen.dataset.spec import resolve
 
     root, _ = resolve(name)
     return root
 
 
 def cmd_physics(args: argparse.Namespace) -> int:
-    from assetgen.dataset import DatasetError, resolve
-    from assetgen.physics_report import report
+    from assetgen.dataset.spec import DatasetError, resolve
+    from assetgen.physics.report import report
 
     try:
         root, _ = resolve(args.dataset)
@@ -118,8 +119,8 @@ def cmd_physics(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from assetgen.dataset import DatasetError
-    from assetgen.dataset_check import check_dataset, repair
+    from assetgen.dataset.check import check_dataset, repair
+    from assetgen.dataset.spec import DatasetError
 
     try:
         root = _open_dataset(args.dataset)
@@ -152,7 +153,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_info(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from assetgen.dataset import Dataset, DatasetError
+    from assetgen.dataset.reader import Dataset
+    from assetgen.dataset.spec import DatasetError
 
     try:
         ds = Dataset(_open_dataset(args.dataset))
@@ -194,7 +196,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from assetgen.dataset import DatasetError
+    from assetgen.dataset.spec import DatasetError
     from sim.assets import AssetError
     from sim.evaluate import eval_main
 
@@ -227,7 +229,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "sim":
-        from assetgen.dataset import DatasetError
+        from assetgen.dataset.spec import DatasetError
         from sim.assets import AssetError
         from sim.bench import bench_main
 
@@ -335,7 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
     e.set_defaults(func=cmd_eval)
 
-    from assetgen.preview.command import add_arguments, view_main
+    from preview.command import add_arguments, view_main
 
     v = sub.add_parser("view", help="browser preview of modules and episodes (viser)")
     add_arguments(v)

@@ -7,9 +7,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from assetgen.dataset import DatasetSpec, generate
-from assetgen.exporters import available_formats
-from assetgen.sampler import SamplerConfig
+from assetgen.dataset.generate import generate
+from assetgen.dataset.spec import DatasetSpec
+from assetgen.formats.registry import available_formats
+from assetgen.params.sampler import SamplerConfig
 
 
 def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = None) -> dict:

@@ -200,7 +200,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     }
     out = getattr(args, "out", None)  # absent when a caller builds args without --out
     if out is not None:
-        from assetgen.atomic_file import strict_json, write_json
+        from assetgen.core.atomic_file import strict_json, write_json
 
         write_json(out, strict_json(res))
     if args.json:

@@ -4,4 +4,4 @@ command (sample, check, info included). rl.runner.ALGOS and rl.presets.PRESETS h
 the names stand for; tests/test_cli.py holds the two in step."""
 
 ALGO_NAMES = ("ppo", "random", "sac")
-PRESET_NAMES = ("cpu", "paper", "pendulum")
+PRESET_NAMES = ("cpu", "debug", "paper")

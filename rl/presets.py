@@ -3,7 +3,7 @@ and checkpoint interval. `get_setup(preset, algo)`; an unknown name lists the va
 
     paper     Table II of the paper: [512, 512], 1024 envs, 100 M steps (a GPU and days)
     cpu       peg-in-hole on a 2-core CPU within an hour
-    pendulum  Pendulum-v1 (python -m rl.bench_pendulum), budgets like published examples
+    debug     seconds on any CPU: smoke tests and a first check of an install
 """
 
 from __future__ import annotations
@@ -92,41 +92,30 @@ PRESETS: dict[str, dict[str, Setup]] = {
         ),
         "random": Setup(RandomConfig(), num_envs=64, total_steps=200_000, checkpoint_steps=200_000),
     },
-    "pendulum": {
+    "debug": {
+        # seconds on any CPU: small nets and batches, for smoke tests and a first check of
+        # an install (`assetgen train --preset debug --steps 2000 ...`); learns nothing useful
         "ppo": Setup(
-            PPOConfig(
-                hidden=(64, 64),
-                learning_rate=1e-3,
-                gamma=0.95,
-                horizon=256,
-                minibatch_size=256,
-                epochs=10,
-                entropy_coef=0.0,
-                normalize_obs=True,
-                reward_scale=0.1,
-            ),
-            num_envs=8,
-            total_steps=300_000,
-            checkpoint_steps=100_000,
+            PPOConfig(hidden=(32, 32), horizon=16, minibatch_size=64, epochs=2),
+            num_envs=4,
+            total_steps=2_048,
+            checkpoint_steps=1_024,
+            curriculum_steps=0,
         ),
         "sac": Setup(
             SACConfig(
-                hidden=(256, 256),
-                learning_rate=1e-3,
-                gamma=0.99,
-                batch_size=256,
-                buffer_size=100_000,
-                warmup_steps=2_000,
-                gradient_steps=1.0,
-                entropy_coef=0.1,
-                learn_entropy=True,
-                steps_per_iteration=200,
+                hidden=(32, 32),
+                batch_size=64,
+                buffer_size=10_000,
+                warmup_steps=100,
+                steps_per_iteration=16,
             ),
-            num_envs=1,
-            total_steps=20_000,
-            checkpoint_steps=10_000,
+            num_envs=4,
+            total_steps=2_048,
+            checkpoint_steps=1_024,
+            curriculum_steps=0,
         ),
-        "random": Setup(RandomConfig(200), num_envs=8, total_steps=16_000, checkpoint_steps=16_000),
+        "random": Setup(RandomConfig(), num_envs=4, total_steps=2_048, checkpoint_steps=2_048),
     },
 }
 """preset name -> algorithm -> Setup."""

@@ -1,6 +1,6 @@
 """What the simulator reads from a dataset: module.json and the STL files, nothing else.
 
-sim/ never calls the geometry code (design.md): a module is its frames, its peg's mass
+sim/ never calls the geometry code: a module is its frames, its peg's mass
 properties, the peg mesh and the convex collision pieces, all as written on disk. Every file
 is checked here, before any simulation, so a missing or corrupt dataset fails with one clear
 message naming the file.
@@ -14,21 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.rotations import quat_to_matrix
-
-_STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+from assetgen.core.mesh import Mesh
+from assetgen.core.rotations import quat_to_matrix
+from assetgen.core.stl import parse_stl_mm
 
 
 class AssetError(RuntimeError):
     """A dataset or module the simulator cannot use; the message names the file and the fix."""
-
-
-@dataclass(frozen=True)
-class Mesh:
-    """A triangle mesh in metres: `vertices` (n, 3) float, `faces` (m, 3) int."""
-
-    vertices: np.ndarray
-    faces: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -56,24 +48,14 @@ class ModuleAsset:
 
 
 def parse_stl(data: bytes, name: str) -> Mesh:
-    """Binary STL bytes in millimetres -> Mesh in metres (vertices merged where identical)."""
-    if len(data) < 84:
-        raise AssetError(f"{name}: {len(data)} bytes is too short for a binary STL")
-    n = int(np.frombuffer(data, "<u4", 1, 80)[0])
-    if n == 0 or len(data) != 84 + 50 * n:
-        raise AssetError(
-            f"{name}: header says {n} triangles but the file has {len(data)} bytes "
-            "(truncated, empty or not a binary STL); regenerate the module"
-        )
-    tri = np.frombuffer(data, _STL_RECORD, n, 84)["v"].astype(np.float64) / 1000.0
-    if not np.all(np.isfinite(tri)):
-        raise AssetError(f"{name}: holds non-finite coordinates; regenerate the module")
-    # merge identical vertices: unique over the rows' bytes (much faster than axis=0)
-    flat = np.ascontiguousarray(tri.reshape(-1, 3))
-    _, first, inverse = np.unique(
-        flat.view(np.dtype((np.void, 24))).ravel(), return_index=True, return_inverse=True
-    )
-    return Mesh(flat[first], inverse.reshape(-1, 3).astype(np.int32))
+    """Binary STL bytes in millimetres -> Mesh in metres; AssetError naming the file."""
+    try:
+        mesh = parse_stl_mm(data, name)
+    except ValueError as e:
+        raise AssetError(f"{e}; regenerate the module (`assetgen check DATASET --repair`)") from e
+    if len(mesh.faces) == 0:
+        raise AssetError(f"{name}: holds no triangles; regenerate the module")
+    return mesh
 
 
 def _frame(d: dict, name: str, where: Path) -> np.ndarray:
@@ -138,7 +120,8 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
 
 def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleAsset]:
     """Every module of a dataset folder (or the listed ids), checked before simulation."""
-    from assetgen.dataset import Dataset, DatasetError
+    from assetgen.dataset.reader import Dataset
+    from assetgen.dataset.spec import DatasetError
 
     try:
         ds = Dataset(root)

@@ -101,7 +101,7 @@ def bench_sim(
 def bench_main(args: argparse.Namespace) -> int:
     """`assetgen bench sim`: args.envs, and optionally args.steps, args.dataset (default
     `test`), args.threads, args.json. Prints a short table (or JSON)."""
-    from assetgen.dataset import resolve
+    from assetgen.dataset.spec import resolve
 
     root, _ = resolve(getattr(args, "dataset", None) or "test")
     res = bench_sim(

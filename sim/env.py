@@ -33,11 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
+from assetgen.core.rotations import matrix_to_quat
 from sim import task as T
 from sim.assets import ModuleAsset, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
-from sim.rotations import matrix_to_quat
 from sim.scene import restitution_to_dampratio
 from sim.step_impl import kernels as step_kernels
 from sim.step_impl import score_params
@@ -402,7 +402,7 @@ class PegInHoleVecEnv:
 
 def _dataset_root(dataset: str | Path) -> Path:
     """A dataset spec name (`train`, `test`) or a folder -> the folder."""
-    from assetgen.dataset import DatasetError, resolve
+    from assetgen.dataset.spec import DatasetError, resolve
 
     try:
         return resolve(str(dataset))[0]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.atomic_file import strict_json, write_json
+from assetgen.core.atomic_file import strict_json, write_json
 from sim.assets import load_dataset
 from sim.config import EVAL_CONFIG, TaskConfig
 from sim.env import PegInHoleVecEnv
@@ -141,7 +141,7 @@ def evaluate(
 def eval_main(args: argparse.Namespace) -> int:
     """`assetgen eval`: args.agent, args.dataset, args.attempts, and optionally args.seed,
     args.envs, args.record, args.record_limit, args.json. Prints a short table (or JSON)."""
-    from assetgen.dataset import resolve
+    from assetgen.dataset.spec import resolve
 
     root, _ = resolve(args.dataset)
     res = evaluate(

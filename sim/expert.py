@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.rotations import matrix_to_rotvec, rot6d_to_matrix
+from assetgen.core.rotations import matrix_to_rotvec, rot6d_to_matrix
 
 
 @dataclass(frozen=True)

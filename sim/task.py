@@ -9,9 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from assetgen.mesh import cross3
-from sim.config import TaskConfig
-from sim.rotations import (
+from assetgen.core.mesh import cross3
+from assetgen.core.rotations import (
     matrix_to_quat,
     quat_conj,
     quat_mul,
@@ -21,6 +20,7 @@ from sim.rotations import (
     rot6d,
     rotvec_to_quat,
 )
+from sim.config import TaskConfig
 
 OBS_DIM = 18
 ACT_DIM = 6

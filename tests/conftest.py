@@ -6,9 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from assetgen.dataset import DatasetSpec, generate
-from assetgen.exporters import available_formats
-from assetgen.sampler import SamplerConfig
+from assetgen.dataset.generate import generate
+from assetgen.dataset.spec import DatasetSpec
+from assetgen.formats.registry import available_formats
+from assetgen.params.sampler import SamplerConfig
 
 TINY_SEEDS = 6
 

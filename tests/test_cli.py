@@ -143,7 +143,7 @@ def test_eval_and_bench_sim(tiny_dataset, tmp_path):
 
 def test_train_then_evaluate_the_checkpoint_on_every_module(tiny_dataset, tmp_path):
     run_dir = tmp_path / "run"
-    run("train", "--algo", "sac", "--preset", "pendulum", "--dataset", str(tiny_dataset),
+    run("train", "--algo", "sac", "--preset", "debug", "--dataset", str(tiny_dataset),
         "--envs", "2", "--steps", "400", "--out", str(run_dir), "--no-progress",
         check=True)  # fmt: skip
     args = ("eval", "--checkpoint", str(run_dir), "--dataset", str(tiny_dataset))

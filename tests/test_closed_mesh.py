@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from assetgen.closed_mesh import check_closed_meshes
-from assetgen.decomposition import exact_pieces
-from assetgen.geometry import build_module
-from assetgen.mesh import Mesh
-from assetgen.sampler import SamplerConfig, sample_params
-from assetgen.stl import merge_vertices, parse_stl_mm, parse_stl_triangles_mm, stl_bytes
+from assetgen.checks.closed_mesh import check_closed_meshes
+from assetgen.collision.exact import exact_pieces
+from assetgen.core.mesh import Mesh
+from assetgen.core.stl import merge_vertices, parse_stl_mm, parse_stl_triangles_mm, stl_bytes
+from assetgen.geometry.solids import build_module
+from assetgen.params.sampler import SamplerConfig, sample_params
 
 
 def _written_pieces(seed: int) -> list[bytes]:

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from assetgen.checks import CheckError
-from assetgen.collision import check_pieces, write_collision
-from assetgen.decomposition import exact_pieces
-from assetgen.geometry import build_module
-from assetgen.module_writer import ExportContext, insertion_travel
-from assetgen.sampler import SamplerConfig, sample_params
-from assetgen.stl import read_stl_triangles_mm
+from assetgen.checks.module_checks import CheckError
+from assetgen.collision.exact import exact_pieces
+from assetgen.collision.pieces import check_pieces, write_collision
+from assetgen.core.stl import read_stl_triangles_mm
+from assetgen.formats.context import ExportContext
+from assetgen.geometry.solids import build_module, insertion_travel
+from assetgen.params.sampler import SamplerConfig, sample_params
 
 from .test_geometry import CORNERS
 
@@ -52,7 +52,7 @@ def test_piece_files_read_back(tmp_path):
 
 
 def test_piece_that_loses_clearance_is_refused():
-    from assetgen.checks import _distance, _fcl_object
+    from assetgen.checks.module_checks import _distance, _fcl_object
 
     g = build_module(CORNERS["32-gon"])
     pieces = exact_pieces(g)
@@ -70,7 +70,7 @@ def test_piece_that_loses_clearance_is_refused():
 
 def test_coacd_output_is_rechecked_and_refused_when_it_loses_clearance(tmp_path):
     """CoACD's approximate pieces fill part of a 1 mm gap: the module is refused clearly."""
-    from assetgen.coacd_decomposition import CoacdConfig, coacd_pieces
+    from assetgen.collision.coacd_pieces import CoacdConfig, coacd_pieces
 
     g = build_module(CORNERS["shortest peg shallowest hole"])
     pieces = coacd_pieces(g.module, CoacdConfig(threshold=0.2, max_convex_hull=4))

@@ -13,10 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from assetgen.dataset import Dataset, DatasetError, DatasetSpec, generate, resolve
-from assetgen.dataset_check import check_dataset, repair
-from assetgen.exporters import available_formats
-from assetgen.sampler import SamplerConfig
+from assetgen.dataset.check import check_dataset, repair
+from assetgen.dataset.generate import generate
+from assetgen.dataset.reader import Dataset
+from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
+from assetgen.formats.registry import available_formats
+from assetgen.params.sampler import SamplerConfig
 
 from .conftest import TINY_SEEDS
 
@@ -169,7 +171,7 @@ def test_full_disk_mid_run_keeps_finished_modules_and_resumes(tmp_path, tiny_dat
     half-written folder left; the next run completes to the uninterrupted content hash."""
     import errno
 
-    from assetgen import module_writer
+    from assetgen.dataset import module_writer
 
     real = module_writer.write_json
     calls = []

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from pxr import Usd, UsdGeom, UsdPhysics
 
-from assetgen.dataset import Dataset
-from assetgen.frames import Frame
+from assetgen.core.frames import Frame
+from assetgen.dataset.reader import Dataset
 
 from .test_usd_export import _select, _validation_errors
 
@@ -53,7 +53,7 @@ def test_module_json_lists_every_format_with_hashes(tiny_dataset):
 def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
     import mujoco
 
-    from assetgen.mjcf_physics import drop_test, side_push_test
+    from assetgen.physics.mjcf_checks import drop_test, side_push_test
 
     for mid, paths, meta in _modules(tiny_dataset):
         model = mujoco.MjModel.from_xml_path(str(paths["mjcf"]))
@@ -74,7 +74,7 @@ def test_every_mjcf_holds_the_peg_against_faces_and_corners(tiny_dataset):
     < 0.1 mm deep. (Its move beyond the free travel is reported by physics_report, not
     bounded: wedged into a corner of half-angle b, a wall penetration p shows as p / sin b
     along the push, ~0.1-0.2 mm for the sharpest squashed triangles.)"""
-    from assetgen.physics_report import check_module
+    from assetgen.physics.report import check_module
 
     for mid, paths, _ in _modules(tiny_dataset):
         r = check_module(paths["mjcf"])

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from assetgen.checks import (
+from assetgen.checks.module_checks import (
     CheckError,
     _distance,
     _fcl_convex,
@@ -18,11 +18,11 @@ from assetgen.checks import (
     lifted,
     verify,
 )
-from assetgen.geometry import build_module, cross_section, peg_planes
-from assetgen.mesh import Mesh
-from assetgen.module_writer import insertion_travel, write_module
-from assetgen.params import ModuleParams
-from assetgen.stl import read_stl_mm, stl_bytes
+from assetgen.core.mesh import Mesh
+from assetgen.core.stl import read_stl_mm, stl_bytes
+from assetgen.dataset.module_writer import write_module
+from assetgen.geometry.solids import build_module, cross_section, insertion_travel, peg_planes
+from assetgen.params.module_params import ModuleParams
 
 DEG = math.pi / 180
 
@@ -191,7 +191,7 @@ def test_written_stl_read_back_independently(tmp_path):
     import fcl
     import trimesh
 
-    from assetgen.frames import Frame
+    from assetgen.core.frames import Frame
 
     rec = _write_and_verify(CORNERS["3-gon aspect 0.25 taper 25% tilts 15deg"], tmp_path)
     d = tmp_path / rec["id"]

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from assetgen.frames import Frame, matrix_to_quat
-from assetgen.mjcf_export import ContactConfig, write_mjcf
-from assetgen.mjcf_physics import drop_test, side_push_test
+from assetgen.core.frames import Frame, matrix_to_quat
+from assetgen.formats.mjcf import ContactConfig, write_mjcf
+from assetgen.physics.mjcf_checks import drop_test, side_push_test
 
 PEG_HALF = 0.010  # m, half-width of the square peg
 PEG_HEIGHT = 0.040
@@ -404,7 +404,7 @@ def test_same_input_same_bytes(good_module, tmp_path) -> None:
 
 
 def test_model_mujoco_refuses_is_named_and_not_written(good_module, tmp_path, monkeypatch) -> None:
-    import assetgen.mjcf_export as mjcf_export
+    import assetgen.formats.mjcf as mjcf_export
 
     module = _copy(good_module, tmp_path / "m")
     text = mjcf_export.mjcf_text
@@ -422,8 +422,8 @@ def test_model_mujoco_refuses_is_named_and_not_written(good_module, tmp_path, mo
 def test_document_from_bytes_in_memory_equals_the_file(good_module, tmp_path) -> None:
     """The module writer's path (bytes and parsed triangles handed over, nothing read back)
     gives the bytes write_mjcf writes after reading the mesh files."""
-    from assetgen.mjcf_export import mjcf_document
-    from assetgen.stl import parse_stl_triangles_mm
+    from assetgen.core.stl import parse_stl_triangles_mm
+    from assetgen.formats.mjcf import mjcf_document
 
     module = _copy(good_module, tmp_path / "m")
     written = export(module).read_bytes()

@@ -7,9 +7,9 @@ from dataclasses import replace
 
 import pytest
 
-from assetgen.geometry import GeometryError, build_module
-from assetgen.params import ModuleParams, ParamError
-from assetgen.sampler import SamplerConfig, sample_params
+from assetgen.geometry.solids import GeometryError, build_module
+from assetgen.params.module_params import ModuleParams, ParamError
+from assetgen.params.sampler import SamplerConfig, sample_params
 
 # Seed 0 under Table I, kept as data: PCG64 and the draw order are fixed, so a change here
 # means every dataset changes (bump GENERATOR_VERSION) or the platform's RNG differs.

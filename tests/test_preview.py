@@ -23,10 +23,13 @@ pytest.importorskip("viser", reason="the `view` extra (viser) is not installed")
 
 from rich.console import Console
 
-from assetgen.dataset import Dataset, DatasetSpec, generate
-from assetgen.preview import command
-from assetgen.preview.episode import fit_notes, load_episode
-from assetgen.preview.scene import (
+from assetgen.dataset.generate import generate
+from assetgen.dataset.reader import Dataset
+from assetgen.dataset.spec import DatasetSpec
+from assetgen.params.sampler import SamplerConfig
+from preview import command
+from preview.episode import fit_notes, load_episode
+from preview.scene import (
     ModuleView,
     PreviewError,
     filter_ids,
@@ -35,9 +38,8 @@ from assetgen.preview.scene import (
     normalise_id,
     open_dataset,
 )
-from assetgen.preview.server import ViewerHandle, exposure_warning, is_loopback, serve
-from assetgen.preview.snapshot import write_html
-from assetgen.sampler import SamplerConfig
+from preview.server import ViewerHandle, exposure_warning, is_loopback, serve
+from preview.snapshot import write_html
 
 
 @pytest.fixture(scope="module")

@@ -27,10 +27,11 @@ from PIL import Image  # noqa: E402
 from playwright.sync_api import Page, sync_playwright  # noqa: E402
 from rich.console import Console  # noqa: E402
 
-from assetgen.dataset import DatasetSpec, generate  # noqa: E402
-from assetgen.preview.server import serve  # noqa: E402
-from assetgen.preview.snapshot import write_html  # noqa: E402
-from assetgen.sampler import SamplerConfig  # noqa: E402
+from assetgen.dataset.generate import generate  # noqa: E402
+from assetgen.dataset.spec import DatasetSpec  # noqa: E402
+from assetgen.params.sampler import SamplerConfig  # noqa: E402
+from preview.server import serve  # noqa: E402
+from preview.snapshot import write_html  # noqa: E402
 
 ARGS = [
     "--headless",

@@ -13,7 +13,7 @@ from rl.ppo import PPO, PPOConfig, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
 from rl.sac import SAC, SACConfig, soft_target
-from rl.toy_env import ToyEnv
+from tests.toy_env import ToyEnv
 
 torch.set_num_threads(1)
 

@@ -10,7 +10,7 @@ from rl import checkpoint as ckpt
 from rl.ppo import PPOConfig
 from rl.presets import Setup
 from rl.runner import CHECKPOINT, load_agent, train
-from rl.toy_env import ToyEnv
+from tests.toy_env import ToyEnv
 
 torch.set_num_threads(1)
 SETUP = Setup(PPOConfig(hidden=(8,), horizon=4, minibatch_size=16, epochs=1), 4, 32, 16)
@@ -88,7 +88,7 @@ def test_resume_of_another_configuration_raises(tmp_path) -> None:
     with pytest.raises(ckpt.CheckpointError, match=r"config.hidden: checkpoint \[8\], now \[16\]"):
         _run(tmp_path, setup=other, resume=True, steps=64)
     with pytest.raises(ckpt.CheckpointError, match="algo: checkpoint 'ppo', now 'sac'"):
-        train("sac", ToyEnv(4), "pendulum", seed=0, out_dir=tmp_path, resume=True,
+        train("sac", ToyEnv(4), "debug", seed=0, out_dir=tmp_path, resume=True,
               progress=False, tensorboard=False)  # fmt: skip
     with pytest.raises(ckpt.CheckpointError, match="already holds a run"):
         _run(tmp_path)  # a fresh run never overwrites one

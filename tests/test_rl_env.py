@@ -7,8 +7,8 @@ import pytest
 
 from rl.gym_vec import GymVecEnv
 from rl.stack import StackObs
-from rl.toy_env import StatefulToyEnv, ToyEnv
 from rl.vec_env import StatefulVecEnv, VecEnv, check_step
+from tests.toy_env import StatefulToyEnv, ToyEnv
 
 
 class CounterEnv:

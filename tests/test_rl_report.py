@@ -172,9 +172,9 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     from rl.ppo import PPOConfig
     from rl.presets import Setup
     from rl.runner import train
-    from rl.toy_env import ToyEnv
     from sim.evaluate import eval_main as sim_eval_main
     from tests.test_sim_common import sim_dataset
+    from tests.toy_env import ToyEnv
 
     torch.set_num_threads(1)
     setup = Setup(PPOConfig(hidden=(16,), horizon=8, minibatch_size=16, epochs=1), 4, 64, 64)

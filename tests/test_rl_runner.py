@@ -18,7 +18,7 @@ from rl.presets import PRESETS, Setup, get_setup
 from rl.runner import load_agent, train
 from rl.sac import SACConfig
 from rl.stack import StackObs
-from rl.toy_env import StatefulToyEnv, ToyEnv
+from tests.toy_env import StatefulToyEnv, ToyEnv
 
 torch.set_num_threads(1)
 

@@ -7,19 +7,18 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-import assetgen.collision as collision
-from assetgen.checks import _distance, _fcl_object, _swept_hull, lifted
-from assetgen.decomposition import exact_pieces
-from assetgen.geometry import build_module
-from assetgen.mesh import Mesh
-from assetgen.module_writer import insertion_travel
-from assetgen.sampler import SamplerConfig, sample_params
-from assetgen.separating_planes import (
+import assetgen.collision.pieces as collision
+from assetgen.checks.module_checks import _distance, _fcl_object, _swept_hull, lifted
+from assetgen.collision.exact import exact_pieces
+from assetgen.collision.separating_planes import (
     edge_cross_directions,
     separation_bounds,
     unit_directions,
 )
-from assetgen.stl import parse_stl_triangles_mm, stl_bytes
+from assetgen.core.mesh import Mesh
+from assetgen.core.stl import parse_stl_triangles_mm, stl_bytes
+from assetgen.geometry.solids import build_module, insertion_travel
+from assetgen.params.sampler import SamplerConfig, sample_params
 
 from .test_geometry import CORNERS
 

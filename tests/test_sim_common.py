@@ -26,8 +26,9 @@ COUNT = 4
 @functools.cache
 def sim_dataset() -> Path:
     """Four test-set modules (seeds 2048-2051) with collision pieces, generated once."""
-    from assetgen.dataset import DatasetSpec, generate
-    from assetgen.sampler import SamplerConfig
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetSpec
+    from assetgen.params.sampler import SamplerConfig
 
     tmp = Path(tempfile.mkdtemp(prefix="sim-tests-"))
     atexit.register(shutil.rmtree, tmp, ignore_errors=True)

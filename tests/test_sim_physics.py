@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
+from assetgen.core.rotations import matrix_to_quat, matrix_to_rotvec, quat_to_matrix
 from sim.assets import load_dataset
 from sim.config import PhysicsConfig
 from sim.env import PegInHoleVecEnv
-from sim.rotations import matrix_to_quat, matrix_to_rotvec, quat_to_matrix
 from sim.scene import restitution_to_dampratio
 from tests.test_sim_common import above_plate, make_env, quiet
 
@@ -104,8 +104,9 @@ def test_a_spinning_peg_under_full_command_is_not_spun_up(tmp_path) -> None:
     spun it up a billion-fold in energy (and such pegs flew off at km/s, polluting training
     batches); unclamped, the energy stays within a small factor of the start's and of the
     commanded motion's."""
-    from assetgen.dataset import DatasetSpec, generate
-    from assetgen.sampler import SamplerConfig
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetSpec
+    from assetgen.params.sampler import SamplerConfig
 
     spec = DatasetSpec("spin", 3014, 1, SamplerConfig(), ("collision",))
     assert not generate(tmp_path / "spin", spec, workers=1, progress=False).failures

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim import task as T
-from sim.config import TaskConfig
-from sim.rotations import (
+from assetgen.core.rotations import (
     matrix_to_quat,
     matrix_to_rotvec,
     quat_to_matrix,
     random_axes,
     rotvec_to_quat,
 )
+from sim import task as T
+from sim.config import TaskConfig
 
 
 def _random_frames(rng: np.random.Generator, n: int) -> np.ndarray:

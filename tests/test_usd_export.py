@@ -10,10 +10,10 @@ import pytest
 import trimesh
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, UsdValidation
 
-from assetgen import usd_export
-from assetgen.frames import Frame, quat_to_matrix
-from assetgen.mesh import Mesh
-from assetgen.usd_export import usda_text, write_usd
+from assetgen.formats import usd as usd_export
+from assetgen.core.frames import Frame, quat_to_matrix
+from assetgen.core.mesh import Mesh
+from assetgen.formats.usd import usda_text, write_usd
 
 MM = 1e-3
 CLEARANCE = 1.0 * MM

@@ -1,0 +1,167 @@
+"""One module from seed to a finished folder: build, write, read back, check, export, rename.
+
+Everything is written into a temporary sibling folder and renamed into place only once every
+check has passed and every file exists, so a folder named `<id>` is always complete and a
+module that fails a check is never written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from assetgen import GENERATOR_VERSION
+from assetgen.checks.module_checks import CheckError, verify
+from assetgen.core import atomic_file
+from assetgen.core.stl import parse_stl_mm, stl_bytes
+from assetgen.core.timing import StepTimes, step
+from assetgen.formats.context import ExportContext
+from assetgen.formats.registry import EXPORTERS, with_dependencies
+from assetgen.formats.threemf import threemf_bytes
+from assetgen.geometry.solids import ModuleGeometry, build_module, insertion_travel
+from assetgen.params.module_params import ModuleParams, ParamError
+from assetgen.params.sampler import SamplerConfig, sample_params
+
+PEG_MASS = 0.2
+"""Peg mass, kg (paper)."""
+MEASURE_DIGITS = 12
+"""Measured values are rounded to 1e-12 (SI) so files do not depend on the last float bit."""
+
+
+class ModuleFailure(RuntimeError):
+    """A module that could not be built or failed a check; carries its seed and reason."""
+
+    def __init__(self, seed: int, reason: str):
+        super().__init__(f"module seed {seed}: {reason}")
+        self.seed = seed
+        self.reason = reason
+
+
+def module_id(seed: int) -> str:
+    return f"{seed:06d}"
+
+
+def _round(x):
+    if isinstance(x, dict):
+        return {k: _round(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_round(v) for v in x]
+    if isinstance(x, float):
+        return round(x, MEASURE_DIGITS)
+    return x
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def peg_mass_properties(geom: ModuleGeometry) -> dict:
+    """Mass, centre of mass (peg frame, m) and inertia about the COM (kg m^2) of the peg."""
+    tm = trimesh.Trimesh(geom.peg.vertices, geom.peg.faces, process=False)
+    volume = float(tm.volume)
+    tm.density = PEG_MASS / volume
+    return {
+        "mass_kg": PEG_MASS,
+        "volume_m3": volume,
+        "com_m": [float(v) for v in tm.center_mass],
+        "inertia_kg_m2": np.asarray(tm.moment_inertia).tolist(),
+    }
+
+
+write_json = atomic_file.write_dataset_json
+"""module.json's writer (a module attribute: tests replace it to fill the disk)."""
+
+
+def generate_module(
+    seed: int,
+    config: SamplerConfig,
+    modules_dir: Path,
+    formats: tuple[str, ...] = (),
+    times: StepTimes | None = None,
+) -> dict:
+    """Sample module `seed` under `config` and write it (see write_module)."""
+    try:
+        with step(times, "sample"):
+            params = sample_params(config, seed)
+    except ParamError as e:
+        raise ModuleFailure(seed, str(e)) from e
+    return write_module(params, seed, modules_dir, formats, times)
+
+
+def write_module(
+    params: ModuleParams,
+    seed: int,
+    modules_dir: Path,
+    formats: tuple[str, ...] = (),
+    times: StepTimes | None = None,
+) -> dict:
+    """Build, check and write a module into `modules_dir/<id>/`; return its module.json.
+
+    Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
+    check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF. Each step
+    adds its wall time to `times` when given (see assetgen.core.timing).
+    """
+    formats = with_dependencies(formats)
+    unknown = [f for f in formats if f not in EXPORTERS]
+    if unknown:
+        raise ValueError(f"unknown export format(s) {unknown}; valid: {sorted(EXPORTERS)}")
+    mid = module_id(seed)
+    final = modules_dir / mid
+    tmp = modules_dir / f".tmp-{mid}-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    try:
+        with step(times, "build"):
+            geom = build_module(params)
+        tmp.mkdir(parents=True)
+        ctx = ExportContext(tmp, geom, {}, times=times)
+        with step(times, "stl+checks"):
+            checks = verify(
+                parse_stl_mm(ctx.write("peg.stl", stl_bytes(geom.peg))),
+                parse_stl_mm(ctx.write("module.stl", stl_bytes(geom.module))),
+                geom.design_pose,
+                params.clearance,
+                insertion_travel(geom),
+            )
+        with step(times, "3mf"):
+            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, geom.module))
+        with step(times, "mass"):
+            peg = peg_mass_properties(geom)
+        ctx.record.update(
+            {
+                "id": mid,
+                "seed": seed,
+                "generator_version": GENERATOR_VERSION,
+                "params": params.to_json(),
+                "clearance": params.clearance,
+                "frames": {
+                    "entrance": geom.entrance.to_json(),
+                    "bottom": geom.bottom.to_json(),
+                    "design_pose": geom.design_pose.to_json(),
+                },
+                "peg": peg,
+                "checks": checks,
+            }
+        )
+        for f in formats:
+            EXPORTERS[f](ctx)
+        record = ctx.record
+        record["files"] = dict(sorted(ctx.hashes.items()))
+        with step(times, "module.json"):
+            write_json(tmp / "module.json", _round(record))
+        with step(times, "rename"):
+            os.replace(tmp, final)
+        return record
+    except (ParamError, CheckError, ValueError) as e:
+        # ValueError: an exporter refused the generated geometry (e.g. a collision piece
+        # that is not a closed convex solid); the module is reported, never written.
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ModuleFailure(seed, str(e)) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -1,0 +1,103 @@
+"""Dataset specs: what a dataset holds (seeds, Table I config, formats) and where it lives.
+
+A spec is named by a JSON file in the repository's `datasets/` folder (`train`, `test`) or
+given by the path of a dataset folder; `resolve` maps a `--dataset` value to both.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from assetgen.params.module_params import ParamError
+from assetgen.params.sampler import SamplerConfig
+
+SPEC_KEYS = {"name", "seed_start", "count", "config", "formats"}
+DEFAULT_FORMATS = ("mjcf", "usd")
+SPECS_DIR = Path(__file__).resolve().parents[2] / "datasets"
+
+
+class DatasetError(RuntimeError):
+    """A dataset that cannot be used as asked; the message says how to proceed."""
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """What a dataset holds: modules for seeds seed_start .. seed_start + count - 1."""
+
+    name: str
+    """Dataset name (also its folder name under datasets/ when given by name)."""
+    seed_start: int
+    """First module seed."""
+    count: int
+    """Number of modules."""
+    config: SamplerConfig = field(default_factory=SamplerConfig)
+    """Table I sampling ranges."""
+    formats: tuple[str, ...] = DEFAULT_FORMATS
+    """Simulation formats written besides STL and 3MF."""
+
+    def validate(self) -> DatasetSpec:
+        if not isinstance(self.count, int) or self.count < 1:
+            raise DatasetError(f"count = {self.count!r}: a dataset needs at least 1 module")
+        if not isinstance(self.seed_start, int) or self.seed_start < 0:
+            raise DatasetError(f"seed_start = {self.seed_start!r} must be a non-negative integer")
+        self.config.validate()
+        return self
+
+    @property
+    def seeds(self) -> range:
+        return range(self.seed_start, self.seed_start + self.count)
+
+    def to_json(self) -> dict:
+        return {
+            "name": self.name,
+            "seed_start": self.seed_start,
+            "count": self.count,
+            "config": self.config.to_json(),
+            "formats": list(self.formats),
+        }
+
+    @staticmethod
+    def from_json(d: dict, source: str = "spec") -> DatasetSpec:
+        unknown = sorted(set(d) - SPEC_KEYS)
+        if unknown:
+            raise DatasetError(
+                f"{source}: unknown key(s) {unknown}; valid keys: {sorted(SPEC_KEYS)}"
+            )
+        missing = sorted({"name", "seed_start", "count"} - set(d))
+        if missing:
+            raise DatasetError(f"{source}: missing key(s) {missing}")
+        try:
+            return DatasetSpec(
+                name=d["name"],
+                seed_start=d["seed_start"],
+                count=d["count"],
+                config=SamplerConfig.from_json(d.get("config", {})),
+                formats=tuple(d.get("formats", DEFAULT_FORMATS)),
+            ).validate()
+        except ParamError as e:
+            raise DatasetError(f"{source}: {e}") from e
+
+
+def spec_names() -> list[str]:
+    return sorted(p.stem for p in SPECS_DIR.glob("*.json"))
+
+
+def resolve(dataset: str) -> tuple[Path, DatasetSpec | None]:
+    """`--dataset` value -> (dataset folder, spec if given by name).
+
+    A name of a spec file in datasets/ (e.g. `train`) maps to datasets/<name>/; anything else
+    is taken as the path of a dataset folder.
+    """
+    spec_file = SPECS_DIR / f"{dataset}.json"
+    if "/" not in dataset and spec_file.exists():
+        spec = DatasetSpec.from_json(json.loads(spec_file.read_text()), str(spec_file))
+        return SPECS_DIR / dataset, spec
+    path = Path(dataset)
+    if path.exists() or "/" in dataset or dataset.startswith("."):
+        return path, None
+    raise DatasetError(
+        f"no dataset spec named {dataset!r} and no folder {dataset!r}; "
+        f"specs: {spec_names()}, or pass the path of a dataset folder"
+    )

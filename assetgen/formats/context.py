@@ -1,0 +1,57 @@
+"""What a format exporter sees while one module is being written (see formats.registry)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from assetgen.core.timing import StepTimes
+from assetgen.geometry.solids import ModuleGeometry
+
+
+@dataclass
+class ExportContext:
+    """What an exporter sees: the folder being written and everything known so far."""
+
+    folder: Path
+    geometry: ModuleGeometry
+    record: dict
+    """module.json being assembled; exporters add their own sections."""
+    hashes: dict[str, str] = field(default_factory=dict)
+    """sha256 of every file written so far, by path relative to the folder."""
+    data: dict[str, bytes] = field(default_factory=dict)
+    """The bytes of every file written with `write`, by the same path: later checks use
+    exactly what is on disk without reading it back."""
+    parsed: dict[str, np.ndarray] = field(default_factory=dict)
+    """Triangles (m, 3, 3) in metres of written STL files parsed back so far, by path: a
+    later step that checks them again does not parse them again."""
+    pieces: list | None = None
+    """The convex collision pieces (module frame, m) once the `collision` step has run."""
+    times: StepTimes | None = None
+    """Where steps add their wall times (see assetgen.core.timing), or None: not timed."""
+    _dirs: set[str] = field(default_factory=set)
+    """Sub-folders of `folder` made so far."""
+
+    def write(self, name: str, data: bytes) -> bytes:
+        """Write `data` to folder/name and record its hash; return the bytes written.
+
+        Checks parse these returned bytes, exactly what is on disk, rather than reading the
+        file again: on this kind of file system an open costs as much as a whole piece.
+        """
+        parent = os.path.dirname(name)
+        if parent and parent not in self._dirs:  # one mkdir per folder, not one per file
+            os.makedirs(self.folder / parent, exist_ok=True)
+            self._dirs.add(parent)
+        with open(self.folder / name, "wb") as f:
+            f.write(data)
+        self.hashes[name] = hashlib.sha256(data).hexdigest()
+        self.data[name] = data
+        return data
+
+
+Exporter = Callable[[ExportContext], None]

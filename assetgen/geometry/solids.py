@@ -1,0 +1,243 @@
+"""Params in, solids and frames out: the peg, the plate with its hole, and the task frames.
+
+Pure geometry: nothing here touches the disk. Construction (all exact up to float rounding):
+- peg: the cross-section polygon at the top (z = h), (1 - taper) times it at the bottom (z = 0),
+  joined by planar side faces; convex, in the peg frame.
+- hole: in the design pose, every face plane of the peg (sides and bottom) moved out by the
+  clearance (mitred corners), continued up through the mounting surface: a convex polytope.
+- module: (plate U sleeve) - hole, where the sleeve is the hole's planes moved out by a
+  further wall (floor) thickness, cut to the hole's bounding box, hanging below the plate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import manifold3d as mf
+import numpy as np
+
+from assetgen.core.frames import Frame
+from assetgen.core.mesh import Mesh, cross3
+from assetgen.geometry.polytope import (
+    interior_point,
+    offset_planes,
+    polytope_vertices,
+    transform_planes,
+)
+from assetgen.params.module_params import ModuleParams, ParamError
+
+HOLE_CAP_Z = 0.02
+"""Height above the mounting surface (m) where the hole's solid is capped; only needs to be
+above every point of the module so the cut opens at the top."""
+
+
+class GeometryError(ParamError):
+    """Valid-looking params whose module cannot be built (e.g. the hole leaves the plate)."""
+
+
+@dataclass(frozen=True)
+class ModuleGeometry:
+    """The solids and frames of one module. Meshes in metres.
+
+    peg            : the peg in the peg frame.
+    module         : plate with sleeve and hole, in the module frame.
+    hole_planes    : (k, 4) rows [n, d], module frame: the hole is {x : n . x <= d} (uncapped).
+    sleeve_planes  : (k, 4) the sleeve as half-spaces (see sleeve_half_spaces), module frame.
+    entrance       : where the hole axis meets the mounting surface, z = surface normal.
+    bottom         : centre of the hole floor, z along the hole axis; a seated peg's frame.
+    design_pose    : the bottom frame moved up the axis by the clearance: every gap = clearance.
+    """
+
+    params: ModuleParams
+    peg: Mesh
+    module: Mesh
+    hole_planes: np.ndarray
+    sleeve_planes: np.ndarray
+    entrance: Frame
+    bottom: Frame
+    design_pose: Frame
+    module_genus: int
+    module_volume: float
+
+
+def cross_section(p: ModuleParams) -> np.ndarray:
+    """Top cross-section polygon (n, 2), counter-clockwise, centred on the peg axis (m)."""
+    k = np.arange(p.n_vertices)
+    theta = 2 * np.pi * k / p.n_vertices
+    pts = p.circumradius * np.column_stack([np.cos(theta), np.sin(theta)])
+    c, s = math.cos(p.squash_angle), math.sin(p.squash_angle)
+    rot = np.array([[c, -s], [s, c]])
+    # Squash along the axis at squash_angle: R diag(aspect, 1) R^T keeps convexity and CCW order.
+    squash = rot @ np.diag([p.aspect_ratio, 1.0]) @ rot.T
+    return pts @ squash.T
+
+
+def peg_mesh(p: ModuleParams) -> Mesh:
+    """The peg as a closed mesh in the peg frame (bottom face centre at the origin)."""
+    top = cross_section(p)
+    n = len(top)
+    bottom = (1.0 - p.taper) * top
+    v = np.vstack(
+        [
+            np.column_stack([bottom, np.zeros(n)]),
+            np.column_stack([top, np.full(n, p.peg_height)]),
+        ]
+    )
+    i = np.arange(n)
+    j = (i + 1) % n
+    sides = np.vstack([np.column_stack([i, j, n + j]), np.column_stack([i, n + j, n + i])])
+    fan = np.arange(1, n - 1)
+    bottom_faces = np.column_stack([np.zeros(n - 2, int), fan + 1, fan])
+    top_faces = np.column_stack([np.full(n - 2, n), n + fan, n + fan + 1])
+    return Mesh(v, np.vstack([sides, bottom_faces, top_faces]).astype(np.int64))
+
+
+def peg_planes(p: ModuleParams) -> np.ndarray:
+    """Face planes of the peg's sides and bottom, peg frame, rows [n, d] (n . x <= d inside).
+
+    The hole is these planes moved out by the clearance. Above the peg's top it simply goes
+    on along the side planes, which widen upward (the peg tapers toward its bottom), so a
+    straight insertion along the axis never comes nearer than the clearance.
+    """
+    top = cross_section(p)
+    n = len(top)
+    h = p.peg_height
+    bottom = (1.0 - p.taper) * top
+    a0 = np.column_stack([bottom, np.zeros(n)])
+    a1 = np.roll(a0, -1, axis=0)
+    b0 = np.column_stack([top, np.full(n, h)])
+    # All side normals in one call (np.cross's per-call overhead is most of the build's
+    # numpy time); cross3 evaluates the same products in the same order, so the same bits.
+    normals = cross3(a1 - a0, b0 - a0)
+    rows = []
+    for k in range(n):
+        normal = normals[k] / np.linalg.norm(normals[k])
+        rows.append([*normal, normal @ a0[k]])
+    rows.append([0.0, 0.0, -1.0, 0.0])
+    return np.array(rows)
+
+
+def hole_rotation(p: ModuleParams) -> np.ndarray:
+    """Rotation (3, 3) of the bottom frame in the module frame: Rx(tilt_x) Ry(tilt_y) Rz(yaw)."""
+    cx, sx = math.cos(p.hole_tilt_x), math.sin(p.hole_tilt_x)
+    cy, sy = math.cos(p.hole_tilt_y), math.sin(p.hole_tilt_y)
+    cz, sz = math.cos(p.hole_yaw), math.sin(p.hole_yaw)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def task_frames(p: ModuleParams) -> tuple[Frame, Frame, Frame]:
+    """(entrance, bottom, design_pose) in the module frame."""
+    r = hole_rotation(p)
+    axis = r[:, 2]
+    entrance = np.array([p.hole_x, p.hole_y, 0.0])
+    m = np.eye(4)
+    m[:3, :3] = r
+    m[:3, 3] = entrance - p.hole_depth * axis
+    bottom = Frame.from_matrix(m)
+    m[:3, 3] += p.clearance * axis
+    design = Frame.from_matrix(m)
+    return Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design
+
+
+def _to_mesh(solid: mf.Manifold) -> Mesh:
+    m = solid.to_mesh64()
+    return Mesh(np.asarray(m.vert_properties)[:, :3].copy(), np.asarray(m.tri_verts, np.int64))
+
+
+def _cap(z_max: float) -> np.ndarray:
+    return np.array([[0.0, 0.0, 1.0, z_max]])
+
+
+def sleeve_half_spaces(
+    p: ModuleParams, hole_planes: np.ndarray, hole_vertices: np.ndarray, design_m: np.ndarray
+) -> np.ndarray:
+    """The sleeve (k, 4): every hole plane moved out by the wall (the floor by the floor
+    thickness), cut to the hole's bounding box in the hole frame grown by the wall, below
+    mid-plate (so its union with the plate is a clean solid).
+
+    The mitred planes make the sleeve's convex decomposition exact and cheap (each wall piece
+    lies beyond one hole plane); the box keeps the acute corners of squashed polygons from
+    growing long mitred spikes. Every wall is at least `sleeve_wall` thick.
+    """
+    extra = np.full(len(hole_planes), p.sleeve_wall)
+    extra[-1] = p.floor_thickness  # the floor plane is the last row of peg_planes
+    local = (hole_vertices - design_m[:3, 3]) @ design_m[:3, :3]
+    lo = local[:, :2].min(axis=0) - p.sleeve_wall
+    hi = local[:, :2].max(axis=0) + p.sleeve_wall
+    box = np.array(
+        [[1, 0, 0, hi[0]], [-1, 0, 0, -lo[0]], [0, 1, 0, hi[1]], [0, -1, 0, -lo[1]]], float
+    )
+    return np.vstack(
+        [
+            offset_planes(hole_planes, extra),
+            transform_planes(box, design_m),
+            _cap(-p.plate_thickness / 2),
+        ]
+    )
+
+
+def build_module(p: ModuleParams) -> ModuleGeometry:
+    """Build the peg, the module and the frames of `p` (validated first)."""
+    p.validate()
+    entrance, bottom, design = task_frames(p)
+    design_m = design.matrix()
+    axis = design_m[:3, 2]
+    hole_planes = transform_planes(offset_planes(peg_planes(p), p.clearance), design_m)
+    centre = np.array(design.pos) + 0.5 * p.hole_depth * axis
+    capped = np.vstack([hole_planes, _cap(HOLE_CAP_Z)])
+    inside = interior_point(capped, centre)
+    if inside is None:
+        raise GeometryError("the hole is empty for these parameters")
+    hole_vertices = polytope_vertices(capped, inside)
+
+    half = p.plate_size / 2
+    t = p.plate_thickness
+    # The hole and its wall must stay inside the plate, or the plate's edge is cut open.
+    slab = np.vstack([hole_planes, _cap(0.0), [[0.0, 0.0, -1.0, t]]])
+    inside = interior_point(slab, np.array([p.hole_x, p.hole_y, -t / 2]))
+    if inside is None:
+        raise GeometryError(
+            "the hole does not reach the mounting surface; increase hole_depth_fraction"
+        )
+    extent = np.abs(polytope_vertices(slab, inside)[:, :2]).max() + p.sleeve_wall
+    if extent > half:
+        raise GeometryError(
+            f"the hole with its {p.sleeve_wall * 1e3:g} mm wall reaches {extent * 1e3:.2f} mm "
+            f"from the plate centre, beyond the plate's edge at {half * 1e3:g} mm (clearance "
+            f"{p.clearance * 1e3:g} mm, hole at ({p.hole_x * 1e3:.1f}, {p.hole_y * 1e3:.1f}) mm): "
+            "reduce the clearance, the circumradius or the hole offset, or enlarge the plate"
+        )
+
+    sleeve_planes = sleeve_half_spaces(p, hole_planes, hole_vertices, design_m)
+    hole = mf.Manifold.hull_points(hole_vertices)
+    plate = mf.Manifold.cube([p.plate_size, p.plate_size, t], center=True).translate([0, 0, -t / 2])
+    body = plate
+    floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
+    inside = interior_point(sleeve_planes, floor_point)
+    if inside is not None:
+        body = body + mf.Manifold.hull_points(polytope_vertices(sleeve_planes, inside))
+    module = body - hole
+    peg = peg_mesh(p)
+    return ModuleGeometry(
+        params=p,
+        peg=peg,
+        module=_to_mesh(module),
+        hole_planes=hole_planes,
+        sleeve_planes=sleeve_planes,
+        entrance=entrance,
+        bottom=bottom,
+        design_pose=design,
+        module_genus=int(module.genus()),
+        module_volume=float(module.volume()),
+    )
+
+
+def insertion_travel(geom: ModuleGeometry) -> float:
+    """How far above the design pose the checked straight insertion starts (m): enough for
+    the peg's bottom face to be above the mounting surface at any tilt."""
+    p = geom.params
+    return p.hole_depth + p.circumradius + 0.01

@@ -1,0 +1,130 @@
+"""Draw ModuleParams from a config whose defaults are the paper's Table I.
+
+Each module has its own integer seed; its parameters depend on that seed and the config only
+(numpy's PCG64 stream, drawn in a fixed order), so the same seed gives the same module on
+every machine and independently of how many modules a run makes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from assetgen.params.module_params import ModuleParams, ParamError
+
+DEG = math.pi / 180
+
+
+@dataclass(frozen=True)
+class SamplerConfig:
+    """Uniform ranges of every sampled parameter (SI units). Defaults: paper Table I."""
+
+    polygon_probability: float = 0.75
+    """Probability of an n-gon with n uniform in `polygon_vertices`; otherwise a circle."""
+    polygon_vertices: tuple[int, int] = (3, 8)
+    """Inclusive range of n for the n-gon branch."""
+    circle_vertices: int = 32
+    """Vertex count of the "circle" branch."""
+    circumradius: tuple[float, float] = (0.01, 0.03)
+    """Cross-section circumradius, m."""
+    aspect_ratio: tuple[float, float] = (0.25, 1.0)
+    """Cross-section aspect ratio."""
+    peg_height: tuple[float, float] = (0.025, 0.15)
+    """Peg height, m."""
+    taper: tuple[float, float] = (0.0, 0.25)
+    """Tapering toward the bottom, fraction."""
+    hole_depth_fraction: tuple[float, float] = (0.4, 0.8)
+    """Hole depth as a fraction of the peg height."""
+    hole_position: tuple[float, float] = (-0.025, 0.025)
+    """Hole entrance x and y (each), m."""
+    hole_tilt: tuple[float, float] = (-15 * DEG, 15 * DEG)
+    """Tilt of the hole axis about the module x and y axes (each), rad."""
+    hole_yaw: tuple[float, float] = (-math.pi, math.pi)
+    """Yaw of the hole about its axis, rad."""
+    clearance: float = 0.001
+    """Clearance, m (fixed, not sampled: 1 mm for training)."""
+
+    def validate(self) -> SamplerConfig:
+        if not 0.0 <= self.polygon_probability <= 1.0:
+            raise ParamError(f"polygon_probability = {self.polygon_probability} must be in [0, 1]")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, tuple):
+                lo, hi = v
+                if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+                    raise ParamError(
+                        f"sampler range {f.name} = {v} must be two finite numbers with low <= high"
+                    )
+        # The corners of the ranges must be buildable: validate them as module params.
+        lo = self.sample_corner(low=True)
+        hi = self.sample_corner(low=False)
+        for p in (lo, hi):
+            try:
+                p.validate()
+            except ParamError as e:
+                raise ParamError(f"sampler config range reaches an unbuildable module: {e}") from e
+        return self
+
+    def sample_corner(self, *, low: bool) -> ModuleParams:
+        i = 0 if low else 1
+        n = self.polygon_vertices[i] if self.polygon_probability > 0 else self.circle_vertices
+        return ModuleParams(
+            n_vertices=int(n),
+            circumradius=self.circumradius[i],
+            aspect_ratio=self.aspect_ratio[i],
+            squash_angle=0.0,
+            peg_height=self.peg_height[i],
+            taper=self.taper[i],
+            hole_depth_fraction=self.hole_depth_fraction[i],
+            hole_x=self.hole_position[i],
+            hole_y=self.hole_position[i],
+            hole_tilt_x=self.hole_tilt[i],
+            hole_tilt_y=self.hole_tilt[i],
+            hole_yaw=self.hole_yaw[i],
+            clearance=self.clearance,
+        )
+
+    def to_json(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @staticmethod
+    def from_json(d: dict) -> SamplerConfig:
+        names = {f.name for f in fields(SamplerConfig)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ParamError(
+                f"unknown sampler config key(s) {unknown}; valid keys: {sorted(names)}"
+            )
+        kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return SamplerConfig(**kw).validate()
+
+
+def sample_params(config: SamplerConfig, seed: int) -> ModuleParams:
+    """The module parameters of `seed` under `config` (same on every machine)."""
+    if not isinstance(seed, int | np.integer) or seed < 0:
+        raise ParamError(f"seed = {seed!r} must be a non-negative integer")
+    rng = np.random.default_rng(int(seed))
+
+    def u(r: tuple[float, float]) -> float:
+        return float(rng.uniform(r[0], r[1]))
+
+    # Fixed draw order: changing it changes every dataset (bump GENERATOR_VERSION if you do).
+    is_polygon = bool(rng.random() < config.polygon_probability)
+    n_poly = int(rng.integers(config.polygon_vertices[0], config.polygon_vertices[1] + 1))
+    return ModuleParams(
+        n_vertices=n_poly if is_polygon else config.circle_vertices,
+        circumradius=u(config.circumradius),
+        aspect_ratio=u(config.aspect_ratio),
+        squash_angle=u((0.0, math.pi)),
+        peg_height=u(config.peg_height),
+        taper=u(config.taper),
+        hole_depth_fraction=u(config.hole_depth_fraction),
+        hole_x=u(config.hole_position),
+        hole_y=u(config.hole_position),
+        hole_tilt_x=u(config.hole_tilt),
+        hole_tilt_y=u(config.hole_tilt),
+        hole_yaw=u(config.hole_yaw),
+        clearance=config.clearance,
+    )

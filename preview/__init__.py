@@ -1,0 +1,32 @@
+"""Browser preview of datasets and recorded episodes (viser; the `view` extra).
+
+    serve(dataset, module=..., episode=..., host="127.0.0.1", port=None) -> ViewerHandle
+    write_html(dataset, out, module=..., episode=...) -> Path      (self-contained snapshot)
+    command.add_arguments / command.view_main                       (`assetgen view`)
+
+Modules: scene.py (meshes, frames, lift, section cut, filters; no viser), episode.py (episode
+files), nodes.py (viser scene nodes), server.py (live GUI), snapshot.py (HTML export).
+Names are imported lazily so that `assetgen` commands other than `view` never import viser.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["PreviewError", "ViewerHandle", "serve", "write_html"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in ("serve", "ViewerHandle"):
+        from preview import server
+
+        return getattr(server, name)
+    if name == "write_html":
+        from preview.snapshot import write_html
+
+        return write_html
+    if name == "PreviewError":
+        from preview.scene import PreviewError
+
+        return PreviewError
+    raise AttributeError(name)
