@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from dataclasses import replace
@@ -16,7 +15,10 @@ console = Console(stderr=False)
 
 
 def _err(msg: str) -> int:
-    Console(stderr=True).print(f"[bold red]error:[/] {msg}", highlight=False)
+    from rich.markup import escape
+
+    err = Console(stderr=True)
+    err.print(f"[bold red]error:[/] {escape(msg)}", highlight=False, soft_wrap=True)
     return 2
 
 
@@ -201,10 +203,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from sim.evaluate import eval_main
 
     if args.checkpoint:
-        try:
-            from rl.commands import eval_main as rl_eval_main
-        except ImportError:
-            return _err("evaluating a checkpoint needs torch: pip install -e '.[rl]'")
+        from rl.commands import eval_main as rl_eval_main
         from sim import make_eval_env
 
         run_args = argparse.Namespace(
@@ -343,20 +342,54 @@ def build_parser() -> argparse.ArgumentParser:
     add_arguments(v)
     v.set_defaults(func=view_main)
 
-    # Training needs torch (the `rl` extra); the rest of the CLI does not. Only looked up
-    # here: importing it would add ~1.4 s to every command.
-    if importlib.util.find_spec("torch") is not None:
-        from rl.commands import add_report_parser, add_train_parser
-        from sim import make_train_env
+    # torch (the `rl` extra) is imported when `train` or `report` runs, not here: it would
+    # add over a second to every command
+    from rl.commands import add_report_parser, add_train_parser
+    from sim import make_train_env
 
-        add_train_parser(sub, make_train_env)
-        add_report_parser(sub)
+    add_train_parser(sub, make_train_env)
+    add_report_parser(sub)
     return p
+
+
+EXTRAS = {
+    "scipy": "cad",
+    "manifold3d": "cad",
+    "trimesh": "cad",
+    "fcl": "cad",
+    "coacd": "cad",
+    "pxr": "cad",
+    "torch": "rl",
+    "safetensors": "rl",
+    "gymnasium": "rl",
+    "tensorboard": "rl",
+    "matplotlib": "rl",
+    "viser": "view",
+}
+"""Top-level module -> the extra of pyproject.toml that installs it."""
+
+
+def missing_extra_message(command: str, module: str) -> str | None:
+    """The one-line advice for a missing optional library (None: not an optional one)."""
+    extra = EXTRAS.get(module.split(".")[0])
+    if extra is None:
+        return None
+    return (
+        f"`assetgen {command}` needs the Python package {module.split('.')[0]!r}, which "
+        f'comes with the [{extra}] extra: pip install "peg-in-hole-assetgen[{extra}]" '
+        f'(in a checkout: pip install -e ".[{extra}]")'
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except ModuleNotFoundError as e:
+        message = missing_extra_message(args.command, e.name or "")
+        if message is None:
+            raise
+        return _err(message)
 
 
 if __name__ == "__main__":

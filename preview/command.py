@@ -36,8 +36,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def view_main(args: argparse.Namespace) -> int:
     """Run `assetgen view`: the live viewer until Ctrl-C, or `--html` a snapshot. Returns the
-    exit status: 2 for bad input in snapshot mode or a host it cannot listen on (the live
-    viewer reports bad data in the page and keeps running)."""
+    exit status: 2 for a dataset that cannot be read or a host it cannot listen on (the live
+    viewer reports bad data found later, e.g. a corrupt module, in the page and keeps
+    running)."""
     from rich.console import Console
     from rich.markup import escape
 
@@ -54,10 +55,11 @@ def view_main(args: argparse.Namespace) -> int:
         size = path.stat().st_size / 1e6
         print(f"wrote {path} ({size:.1f} MB): opens in a browser without a server")
         return 0
-    from preview.scene import PreviewError
+    from preview.scene import PreviewError, open_dataset
     from preview.server import serve
 
     try:
+        open_dataset(args.dataset)  # a dataset that cannot be read is an error before any server
         handle = serve(
             args.dataset,
             module=args.module,
@@ -66,7 +68,7 @@ def view_main(args: argparse.Namespace) -> int:
             port=args.port,
             console=err,
         )
-    except PreviewError as e:  # only a host it cannot listen on; data errors go to the page
+    except PreviewError as e:  # no such dataset, or a host it cannot listen on
         err.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
         return 2
     handle.wait()

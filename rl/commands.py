@@ -1,18 +1,18 @@
-"""argparse wiring for the `assetgen` command: the lead's cli.py calls
+"""The learning commands of `assetgen`; cli.py registers them and calls them:
 
-    add_train_parser(subparsers, make_env)       assetgen train ...
-    add_eval_parser(subparsers, make_eval_env)   assetgen eval-agent ...
+    add_train_parser(subparsers, make_env)   assetgen train ...
+    eval_main(args, make_eval_env)           assetgen eval --checkpoint RUN ...
+    add_report_parser(subparsers)            assetgen report ...
 
 `make_env(dataset: str, num_envs: int, seed: int, **task) -> VecEnv` (rl/vec_env.py; train passes
 `curriculum_steps=N`, the length of the env's spawn curriculum, as a keyword) is supplied by
-the caller, so rl/ never imports the simulator. Each parser sets `func(args) -> int` (an exit
-code), as the other subcommands do.
+the caller, so rl/ never imports the simulator; for a dataset it cannot use it raises
+ValueError with a message for the user. Each parser sets `func(args) -> int` (an exit code),
+as the other subcommands do.
 
     assetgen train --algo ppo|sac|random [--stack 10] --dataset D [--preset cpu]
                    [--steps N | --minutes M] [--seed S] --out RUN_DIR [--resume]
                    [--envs N] [--device cpu|cuda] [--threads T] [--no-progress]
-    assetgen eval-agent --run RUN_DIR --dataset D [--episodes 10] [--envs N] [--seed S]
-                   [--stochastic] [--json] [--out FILE.json]
     assetgen report RUN_DIR... [--baselines FILE_OR_DIR...] --out DIR
 
 `report` (add_report_parser) needs no env: it reads run folders and evaluation JSONs.
@@ -28,7 +28,17 @@ from pathlib import Path
 from rl.vec_env import VecEnv
 
 MakeEnv = Callable[..., VecEnv]
-"""make_env(dataset, num_envs, seed, **task) -> a VecEnv."""
+"""make_env(dataset, num_envs, seed, **task) -> a VecEnv; ValueError for a bad dataset."""
+
+
+def _error(message: str) -> int:
+    """Print a one-line error for the user on stderr; exit code 2."""
+    from rich.console import Console
+    from rich.markup import escape
+
+    err = Console(stderr=True)
+    err.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+    return 2
 
 
 def add_train_parser(
@@ -125,8 +135,7 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             env_options={"curriculum_steps": curriculum},
         )
     except (ValueError, CheckpointError) as e:
-        console.print(f"[bold red]error:[/] {e}")
-        return 2
+        return _error(str(e))
     if args.json:
         print(json.dumps(result))
     else:
@@ -139,36 +148,13 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     return {"done": 0, "nan": 1, "interrupted": 130}[result["status"]]
 
 
-def add_eval_parser(
-    subparsers: argparse._SubParsersAction, make_env: MakeEnv, name: str = "eval-agent"
-) -> argparse.ArgumentParser:
-    """Register `eval-agent` (the protocol of rl/evaluate.py on a trained run)."""
-    p = subparsers.add_parser(
-        name,
-        help="evaluate a trained run: success rate and time to success",
-        description="Every env plays --episodes episodes with the run's policy (deterministic "
-        "unless --stochastic); make_env should give one env per module for the paper's protocol.",
-    )
-    p.add_argument("--run", type=Path, required=True, help="run folder (or checkpoint file)")
-    p.add_argument("--dataset", required=True, help="dataset spec name or folder")
-    p.add_argument("--episodes", type=int, default=10, help="episodes per env (default 10)")
-    p.add_argument("--envs", type=int, help="envs (default: the run's)")
-    p.add_argument("--seed", type=int, default=0, help="env seed (default 0)")
-    p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
-    p.add_argument("--stochastic", action="store_true", help="sample actions")
-    p.add_argument("--json", action="store_true", help="print the results as one JSON line")
-    p.add_argument("--out", type=Path, help="write the results JSON here (for `report`)")
-    p.set_defaults(func=lambda args: eval_main(args, make_env))
-    return p
-
-
 def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     """Evaluate a run from parsed arguments; prints a short table or a JSON line."""
     import numpy as np
 
     from rl.checkpoint import CheckpointError
     from rl.evaluate import evaluate
-    from rl.runner import console, load_agent
+    from rl.runner import load_agent
     from rl.stack import StackObs
 
     try:
@@ -188,8 +174,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             seed=args.seed,
         )
     except (ValueError, CheckpointError) as e:
-        console.print(f"[bold red]error:[/] {e}")
-        return 2
+        return _error(str(e))
     # algo, stack, run and dataset let `assetgen report` name the variant and the split
     res = {
         "algo": meta["algo"],

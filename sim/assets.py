@@ -19,8 +19,10 @@ from assetgen.core.rotations import quat_to_matrix
 from assetgen.core.stl import parse_stl_mm
 
 
-class AssetError(RuntimeError):
-    """A dataset or module the simulator cannot use; the message names the file and the fix."""
+class AssetError(ValueError):
+    """A dataset or module the simulator cannot use; the message names the file and the fix.
+
+    A ValueError: the env factories' contract (rl.commands.MakeEnv) for bad input."""
 
 
 @dataclass(frozen=True)

@@ -26,11 +26,22 @@ def run(*args: str, check: bool = False) -> subprocess.CompletedProcess:
     return p
 
 
+def row(table: str, label: str) -> str:
+    """The value cell of the row labelled `label` in a two-column table printed by rich."""
+    for line in table.splitlines():
+        cells = [c.strip() for c in line.strip().strip("│┃|").split("│")]
+        if len(cells) >= 2 and cells[0] == label:
+            return cells[-1]
+    raise AssertionError(f"no row {label!r} in:\n{table}")
+
+
 def test_sample_prints_summary(tmp_path):
     p = run(
         "sample", "--n", "3", "--seed", "5", "--out", str(tmp_path / "d"), "--quiet", check=True
     )
-    assert "generated" in p.stdout and "clearance min" in p.stdout and "failed" in p.stdout
+    assert (row(p.stdout, "generated"), row(p.stdout, "failed")) == ("3", "0")
+    low, high = (float(row(p.stdout, f"clearance {m}").split()[0]) for m in ("min", "max"))
+    assert 0.999 <= low <= high <= 1.001  # mm: the exact 1 mm clearance, as measured
     assert sorted(d.name for d in (tmp_path / "d" / "modules").iterdir()) == [
         "000005",
         "000006",
@@ -78,7 +89,9 @@ def test_output_path_is_a_file(tmp_path):
 
 def test_check_info_bench(tiny_dataset):
     p = run("check", str(tiny_dataset), check=True)
-    assert "missing" in p.stdout
+    for label in ("missing", "corrupt", "stale"):
+        assert row(p.stdout, label) == "0", label
+    assert row(p.stdout, "manifest") == "ok"
     p = run("info", str(tiny_dataset), check=True)
     assert "circumradius" in p.stdout and "measured clearance" in p.stdout
     p = run("bench", "assets", "--n", "4", "--workers", "1", "--json", check=True)
@@ -93,6 +106,28 @@ def test_check_info_bench(tiny_dataset):
 def test_unknown_dataset_name():
     p = run("info", "no_such_dataset")
     assert p.returncode != 0 and "no dataset spec named" in p.stderr
+
+
+def test_missing_dataset_is_one_line_error_for_every_command(tmp_path):
+    """info, train, eval and view refuse a folder that does not exist in the same words, on
+    one line, exit code 2, before any work (no traceback, no run folder, no server)."""
+    missing = str(tmp_path / "nonexistent")
+    info = run("info", missing)
+    assert info.returncode == 2 and "is not a dataset (no dataset.json)" in info.stderr
+    train = run("train", "--algo", "ppo", "--preset", "debug", "--dataset", missing,
+                "--out", str(tmp_path / "run"), "--no-progress")  # fmt: skip
+    ev = run("eval", "--agent", "scripted", "--dataset", missing)
+    for p in (train, ev):
+        assert p.returncode == 2, p.stdout + p.stderr
+        assert p.stderr == info.stderr, (p.stderr, info.stderr)
+        assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+    assert not (tmp_path / "run").exists()
+    view = subprocess.run(
+        [sys.executable, "-m", "cli", "view", missing, "--port", "0"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert view.returncode == 2 and "does not exist" in view.stderr
+    assert "http" not in view.stdout + view.stderr  # no server was started
 
 
 def test_eval_and_bench_sim(tiny_dataset, tmp_path):
@@ -112,7 +147,7 @@ def test_eval_and_bench_sim(tiny_dataset, tmp_path):
     assert "success rate" in p.stdout
     saved = json.loads(out.read_text())
     assert saved["agent"] == "scripted" and saved["episodes"] == 6
-    assert 0.0 <= saved["success_rate"] <= 1.0
+    assert saved["success_rate"] == 1.0  # the expert inserts every peg (10240 of 10240 on test)
     p = run(
         "eval",
         "--agent",
@@ -124,7 +159,8 @@ def test_eval_and_bench_sim(tiny_dataset, tmp_path):
         "--json",
         check=True,
     )
-    assert json.loads(p.stdout.strip().splitlines()[-1])["episodes"] == 6
+    random = json.loads(p.stdout.strip().splitlines()[-1])
+    assert random["episodes"] == 6 and random["success_rate"] == 0.0
     p = run(
         "bench",
         "sim",

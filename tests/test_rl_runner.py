@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from rl.commands import add_eval_parser, add_train_parser
+from rl.commands import add_train_parser, eval_main
 from rl.evaluate import evaluate
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
@@ -181,7 +181,6 @@ def test_commands(tmp_path, capsys) -> None:
     parser = argparse.ArgumentParser(prog="assetgen")
     sub = parser.add_subparsers(dest="command", required=True)
     add_train_parser(sub, make_env)
-    add_eval_parser(sub, make_env)
     out = tmp_path / "run"
     argv = ["train", "--algo", "ppo", "--stack", "2", "--dataset", "toy", "--preset", "cpu",
             "--steps", "100", "--envs", "2", "--seed", "5", "--out", str(out),
@@ -194,9 +193,9 @@ def test_commands(tmp_path, capsys) -> None:
     assert made[-1] == ("toy", 2, 5, {"curriculum_steps": curriculum})
     meta = json.loads((out / "config.json").read_text())
     assert meta["env_options"] == {"curriculum_steps": curriculum}
-    args = parser.parse_args(["eval-agent", "--run", str(out), "--dataset", "toy",
-                              "--episodes", "1", "--json"])  # fmt: skip
-    assert args.func(args) == 0
+    args = argparse.Namespace(run=out, dataset="toy", episodes=1, envs=None, seed=0, device=None,
+                              stochastic=False, json=True, out=None)  # fmt: skip
+    assert eval_main(args, make_env) == 0
     ev = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert ev["algo"] == "ppo" and ev["stack"] == 2 and ev["episodes"] == 2
     args = parser.parse_args(argv)  # the folder holds a run: refused, with a clear message

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from assetgen.core.rotations import rot6d
+from assetgen.dataset.reader import Dataset
 from sim import task as T
 from sim.assets import AssetError, load_dataset
 from sim.env import PegInHoleVecEnv, assign_modules
@@ -339,17 +340,18 @@ import sys
 class _Block:
     def find_spec(self, name, path=None, target=None):
         if name.split(".")[0] in {blocked!r}:
-            raise ImportError(f"{{name}} is blocked by this test")
+            raise ModuleNotFoundError(f"{{name}} is blocked by this test", name=name)
 sys.meta_path.insert(0, _Block())
 """
 _CAD_STACK = {"fcl", "manifold3d", "coacd", "pxr", "trimesh", "scipy", "viser"}
 
 
 @pytest.mark.parametrize("numba", [True, False])
-def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path, numba: bool) -> None:
-    """The simulator and the agents read module.json and the collision files only: a machine
-    without the generator's libraries (python-fcl, manifold3d, USD, ...) can train on a
-    dataset made elsewhere; without numba too (the step's numpy form runs)."""
+def test_training_needs_no_cad_stack_nor_viewer(tmp_path: Path, numba: bool) -> None:
+    """What a training machine installs (the base and the `rl` extra) is enough: with the
+    generator's libraries (python-fcl, manifold3d, USD, ...) and viser blocked, the CLI
+    trains a few steps on a dataset made elsewhere and evaluates the checkpoint; without
+    numba too (the step's numpy form runs)."""
     import os
     import subprocess
     import sys
@@ -357,21 +359,29 @@ def test_loading_a_dataset_needs_no_cad_stack(tmp_path: Path, numba: bool) -> No
     blocked = _CAD_STACK if numba else _CAD_STACK | {"numba", "llvmlite"}
     (tmp_path / "sitecustomize.py").write_text(_BLOCK.format(blocked=sorted(blocked)))
     repo = Path(__file__).resolve().parents[1]
-    code = (
-        "from sim.env import make_train_env\n"
-        "import rl.runner, numpy as np\n"
-        f"env = make_train_env({str(sim_dataset())!r}, 2, seed=0)\n"
-        "env.reset(seed=0)\n"
-        "obs, *_ = env.step(np.zeros((2, 6), np.float32))\n"
-        "print('ok', obs.shape, env.kernels)\n"
-    )
     path = [str(tmp_path), str(repo), *filter(None, [os.environ.get("PYTHONPATH")])]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(path))
-    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+
+    def cli(*args: str) -> subprocess.CompletedProcess:
+        cmd = [sys.executable, "-m", "cli", *args]
+        return subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tmp_path)
+
+    data, run = str(sim_dataset()), str(tmp_path / "run")
+    r = cli("train", "--algo", "ppo", "--preset", "debug", "--dataset", data, "--envs", "2",
+            "--steps", "64", "--out", run, "--no-progress", "--json")  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
-    assert f"ok (2, 18) {'numba' if numba else 'numpy'}" in r.stdout
-    # the blocker works: the generator itself cannot be imported under it
-    r = subprocess.run(
-        [sys.executable, "-c", "import assetgen.checks.module_checks"], env=env, capture_output=True, text=True
-    )
-    assert r.returncode != 0 and "blocked by this test" in r.stderr
+    assert json.loads(r.stdout.strip().splitlines()[-1])["env_steps"] == 64
+    r = cli("eval", "--checkpoint", run, "--dataset", data, "--attempts", "1", "--json")
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert json.loads(r.stdout.strip().splitlines()[-1])["episodes"] == len(Dataset(data))
+    code = f"from sim.env import make_train_env; print(make_train_env({data!r}, 2, 0).kernels)"
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert r.stdout.strip() == ("numba" if numba else "numpy"), r.stderr[-2000:]
+    # the blocker works: the generator and the viewer cannot be imported under it
+    for module in ("assetgen.checks.module_checks", "preview.server"):
+        r = subprocess.run([sys.executable, "-c", f"import {module}"], env=env, text=True,
+                           capture_output=True)  # fmt: skip
+        assert r.returncode != 0 and "blocked by this test" in r.stderr, module
+    # and a command that needs them says which extra to install, in one line
+    r = cli("sample", "--n", "1", "--out", str(tmp_path / "d"), "--quiet")
+    assert r.returncode == 2 and "[cad] extra" in r.stderr and "Traceback" not in r.stderr

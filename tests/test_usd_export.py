@@ -10,9 +10,9 @@ import pytest
 import trimesh
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, UsdValidation
 
-from assetgen.formats import usd as usd_export
 from assetgen.core.frames import Frame, quat_to_matrix
 from assetgen.core.mesh import Mesh
+from assetgen.formats import usd as usd_export
 from assetgen.formats.usd import usda_text, write_usd
 
 MM = 1e-3

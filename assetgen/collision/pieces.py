@@ -60,7 +60,8 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
 
     Each piece's distance is bounded from below by its best separating direction (a hole
     plane's normal, an axis, or an axis crossed with a peg edge; see
-    assetgen.collision.separating_planes): a proof, tight to nanometres for exact pieces. A piece whose
+    assetgen.collision.separating_planes): a proof, tight to nanometres for exact pieces.
+    A piece whose
     bound falls short of the clearance (a CoACD piece that fills the gap, or one no such
     direction clears) is measured exactly with python-fcl and refused only if that distance
     falls short too. Returns the smallest bounds (or distances) and how many pieces needed

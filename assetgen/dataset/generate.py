@@ -131,6 +131,7 @@ def generate(
     progress: bool = True,
 ) -> RunSummary:
     """Generate every module of `spec` not yet in `root`; return a summary."""
+    # the generator's libraries load here, in this process: a missing one fails at once
     from assetgen.dataset.module_writer import ModuleFailure, module_id
 
     spec.validate()
