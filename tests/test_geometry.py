@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -21,7 +22,13 @@ from assetgen.checks.module_checks import (
 from assetgen.core.mesh import Mesh
 from assetgen.core.stl import read_stl_mm, stl_bytes
 from assetgen.dataset.module_writer import write_module
-from assetgen.geometry.solids import build_module, cross_section, insertion_travel, peg_planes
+from assetgen.geometry.solids import (
+    GeometryError,
+    build_module,
+    cross_section,
+    insertion_travel,
+    peg_planes,
+)
 from assetgen.params.module_params import ModuleParams
 
 DEG = math.pi / 180
@@ -252,3 +259,34 @@ def test_read_stl_roundtrip(tmp_path):
     (tmp_path / "p.stl").write_bytes(stl_bytes(g.peg))
     back = read_stl_mm(tmp_path / "p.stl")
     assert np.allclose(np.sort(back.vertices, axis=0), np.sort(g.peg.vertices, axis=0), atol=1e-9)
+
+
+def _corner(sx: int, sy: int, ox: int, oy: int) -> ModuleParams:
+    """A Table I corner: the tallest, widest peg in the deepest hole, tilted 15 deg about x
+    and y with signs (sx, sy), its entrance 25 mm off centre with signs (ox, oy)."""
+    return ModuleParams(
+        n_vertices=32, circumradius=0.03, aspect_ratio=1.0, squash_angle=0.0, peg_height=0.15,
+        taper=0.0, hole_depth_fraction=0.8, hole_x=0.025 * ox, hole_y=0.025 * oy,
+        hole_tilt_x=math.radians(15) * sx, hole_tilt_y=math.radians(15) * sy, hole_yaw=0.0,
+    )  # fmt: skip
+
+
+def test_modules_stay_inside_their_plate_footprint_at_the_corners_of_table_1():
+    """A module is never wider than its 150 x 150 mm plate: at the corners of Table I where
+    the sleeve would lean out of the footprint, the parameters are refused by name."""
+    built, refused = 0, 0
+    for signs in itertools.product((1, -1), repeat=4):
+        p = _corner(*signs)
+        try:
+            g = build_module(p)
+        except GeometryError as e:
+            assert "sleeve under the hole reaches" in str(e) and "reduce" in str(e)
+            refused += 1
+            continue
+        built += 1
+        reach = np.abs(g.module.vertices[:, :2]).max()
+        assert reach <= p.plate_size / 2 + 1e-9, (signs, reach)
+    assert built and refused  # both cases occur at the corners
+    # the case found by hand: both tilts leaning toward a 25 mm offset, 167.6 mm across
+    with pytest.raises(GeometryError, match=r"reaches 9\d\.\d\d mm from the plate centre"):
+        build_module(_corner(1, 1, 1, 1))

@@ -27,6 +27,8 @@ from assetgen.geometry.polytope import (
 )
 from assetgen.params.module_params import ModuleParams, ParamError
 
+FOOTPRINT_TOLERANCE = 1e-9
+"""m a module may reach beyond its plate's footprint (rounding only)."""
 HOLE_CAP_Z = 0.02
 """Height above the mounting surface (m) where the hole's solid is capped; only needs to be
 above every point of the module so the cut opens at the top."""
@@ -219,7 +221,20 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
     floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
     inside = interior_point(sleeve_planes, floor_point)
     if inside is not None:
-        body = body + mf.Manifold.hull_points(polytope_vertices(sleeve_planes, inside))
+        sleeve = polytope_vertices(sleeve_planes, inside)
+        # a tilted, deep hole leans out: the sleeve hanging below the plate must stay inside
+        # the plate's footprint, or the module is wider than its plate (and its neighbours')
+        reach = np.abs(sleeve[:, :2]).max()
+        if reach > half + FOOTPRINT_TOLERANCE:
+            raise GeometryError(
+                f"the sleeve under the hole reaches {reach * 1e3:.2f} mm from the plate centre, "
+                f"beyond the plate's {half * 1e3:g} mm half-width (hole depth "
+                f"{p.hole_depth * 1e3:.1f} mm, tilts ({math.degrees(p.hole_tilt_x):.1f}, "
+                f"{math.degrees(p.hole_tilt_y):.1f}) deg, hole at ({p.hole_x * 1e3:.1f}, "
+                f"{p.hole_y * 1e3:.1f}) mm, circumradius {p.circumradius * 1e3:.1f} mm): reduce "
+                "peg_height, hole_depth_fraction, the tilts or the hole offset"
+            )
+        body = body + mf.Manifold.hull_points(sleeve)
     module = body - hole
     peg = peg_mesh(p)
     return ModuleGeometry(
