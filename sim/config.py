@@ -1,7 +1,7 @@
 """The task and the physics as frozen dataclasses; the defaults are the paper's numbers.
 
-Every number of the task (reference.md) lives in `TaskConfig`; how MuJoCo is made to behave
-(controller gains, contact softness) lives in `PhysicsConfig`, nested in it.
+Every number of the task (the paper's, see docs/task.md) lives in `TaskConfig`; how MuJoCo is
+made to behave (controller gains, contact softness) lives in `PhysicsConfig`, nested in it.
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ class PhysicsConfig:
 
 @dataclass(frozen=True)
 class TaskConfig:
-    """The peg-in-hole task (paper and reference.md). Units: m, s, rad unless stated."""
+    """The peg-in-hole task (the paper's numbers, see docs/task.md). Units: m, s, rad."""
 
     max_steps: int = 500
     """Control steps per episode before truncation (10 s at 50 Hz)."""

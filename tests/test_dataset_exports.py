@@ -67,7 +67,7 @@ def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
 
 
 def test_every_mjcf_holds_the_peg_against_faces_and_corners(tiny_dataset):
-    """Issue #3: held down the axis (weight + 3 N), a peg pushed with 5 N towards each side
+    """Held down the axis (weight + 3 N), a peg pushed with 5 N towards each side
     face of the hole rests within the clearance + 0.1 mm along the push (the free travel
     towards a face from the seated pose is at most the clearance), < 0.1 mm deep; pushed
     towards each corner and 8 even directions it never goes through a wall and rests

@@ -1,4 +1,4 @@
-"""Issue #3's MJCF physics checks over exported modules, and their worst figures.
+"""The MJCF physics checks over every module of a dataset, and their worst figures.
 
     python -m assetgen.physics.report DATASET [--limit N] [--json OUT]
 

@@ -1,0 +1,141 @@
+"""The layout's contracts: stages import in one direction, no import cycle, every stage says
+what it holds, and no file points outside the repository or tells how it came to be."""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("assetgen", "sim", "rl", "preview", "benchmarks")
+STAGES = ("core", "params", "geometry", "checks", "collision", "formats", "dataset", "physics")
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    found = {"cli": ROOT / "cli.py"}
+    for pkg in PACKAGES:
+        for path in (ROOT / pkg).rglob("*.py"):
+            found[_module_name(path)] = path
+    return found
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Project module -> the project modules it imports, lazily (inside functions) or not."""
+    modules = _modules()
+    graph: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                # `from pkg import mod` imports the module pkg.mod when there is one
+                targets = [
+                    f"{node.module}.{a.name}"
+                    if f"{node.module}.{a.name}" in modules
+                    else node.module
+                    for a in node.names
+                ]
+            else:
+                continue
+            edges |= {t for t in targets if t in modules and t != name}
+        graph[name] = edges
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_cycle_finder_finds_a_cycle():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_cycle():
+    assert cycles(import_graph()) == []
+
+
+def _imports_of(prefix: str) -> set[str]:
+    graph = import_graph()
+    return {t for m, ts in graph.items() if m == prefix or m.startswith(prefix + ".") for t in ts}
+
+
+def test_data_flows_one_way():
+    """assetgen never imports the simulator, the agents or the viewer; sim reads datasets
+    through the shared numpy-only pieces only; rl never imports the simulator."""
+    top = {t.split(".")[0] for t in _imports_of("assetgen")}
+    assert top <= {"assetgen"}, top
+    from_assetgen = {t for t in _imports_of("sim") if t.startswith("assetgen")}
+    allowed = ("assetgen.core", "assetgen.dataset.spec", "assetgen.dataset.reader")
+    assert all(t.startswith(allowed) for t in from_assetgen), from_assetgen
+    assert not {t for t in _imports_of("rl") if t.startswith(("sim", "preview"))}
+    assert not {t for t in _imports_of("assetgen.core") if not t.startswith("assetgen.core")}
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_says_what_it_holds(stage):
+    init = ROOT / "assetgen" / stage / "__init__.py"
+    doc = ast.get_docstring(ast.parse(init.read_text()))
+    assert doc and len(doc.split()) >= 12, f"{init}: a one-paragraph docstring naming the stage"
+
+
+FORBIDDEN = re.compile(
+    r"design\.md|reference\.md|\.\./shared|[Ii]ssue #?\d|\bthe lead\b|\bthis session\b|"
+    r"\blast session\b|\bprevious round\b"
+)
+
+
+def test_no_file_points_outside_the_repository_or_tells_its_history():
+    offenders = []
+    for path in sorted(ROOT.rglob("*")):
+        rel = path.relative_to(ROOT)
+        if rel.parts[0] in {".git", "datasets", "runs", ".ruff_cache", ".pytest_cache"}:
+            continue
+        if path.suffix not in {".py", ".md", ".toml", ".json"} and path.name != "run":
+            continue
+        if path == Path(__file__).resolve():
+            continue  # the pattern itself
+        for n, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+            if FORBIDDEN.search(line):
+                offenders.append(f"{rel}:{n}: {line.strip()[:80]}")
+    assert not offenders, "\n".join(offenders)
