@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from assetgen.core.portable import matmul
+
 
 @dataclass(frozen=True)
 class Mesh:
@@ -20,7 +22,7 @@ class Mesh:
 
     def transformed(self, matrix: np.ndarray) -> Mesh:
         """The mesh moved by a (4, 4) homogeneous transform."""
-        v = self.vertices @ matrix[:3, :3].T + matrix[:3, 3]
+        v = matmul(self.vertices, matrix[:3, :3].T) + matrix[:3, 3]
         return Mesh(v, self.faces)
 
     def to_trimesh(self):

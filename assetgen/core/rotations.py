@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from assetgen.core.portable import norm
+
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """(..., 4) quaternions -> (..., 3, 3) rotation matrices (normalised first)."""
     q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    q = q / norm(q)[..., None]
     w, x, y, z = np.moveaxis(q, -1, 0)
     r = np.empty((*q.shape[:-1], 3, 3))
     r[..., 0, 0] = 1 - 2 * (y * y + z * z)
@@ -52,7 +54,7 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     for i, row in rows.items():
         sel = k == i
         q[sel] = np.stack(row, axis=1)[sel]
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q /= norm(q)[:, None]
     q[q[:, 0] < 0] *= -1
     return q.reshape(*r.shape[:-2], 4)
 

@@ -12,9 +12,6 @@ import os
 import shutil
 from pathlib import Path
 
-import numpy as np
-import trimesh
-
 from assetgen import GENERATOR_VERSION
 from assetgen.checks.module_checks import CheckError, verify
 from assetgen.core import atomic_file
@@ -23,6 +20,7 @@ from assetgen.core.timing import StepTimes, step
 from assetgen.formats.context import ExportContext
 from assetgen.formats.registry import EXPORTERS, with_dependencies
 from assetgen.formats.threemf import threemf_bytes
+from assetgen.geometry.mass import mass_properties
 from assetgen.geometry.solids import ModuleGeometry, build_module, insertion_travel
 from assetgen.params.module_params import ModuleParams, ParamError
 from assetgen.params.sampler import SamplerConfig, sample_params
@@ -62,14 +60,12 @@ def sha256(path: Path) -> str:
 
 def peg_mass_properties(geom: ModuleGeometry) -> dict:
     """Mass, centre of mass (peg frame, m) and inertia about the COM (kg m^2) of the peg."""
-    tm = trimesh.Trimesh(geom.peg.vertices, geom.peg.faces, process=False)
-    volume = float(tm.volume)
-    tm.density = PEG_MASS / volume
+    volume, com, inertia = mass_properties(geom.peg, PEG_MASS)
     return {
         "mass_kg": PEG_MASS,
         "volume_m3": volume,
-        "com_m": [float(v) for v in tm.center_mass],
-        "inertia_kg_m2": np.asarray(tm.moment_inertia).tolist(),
+        "com_m": [float(v) for v in com],
+        "inertia_kg_m2": inertia.tolist(),
     }
 
 

@@ -36,6 +36,7 @@ import numpy as np
 from assetgen.checks.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.core.frames import Frame
 from assetgen.core.mesh import Mesh
+from assetgen.core.portable import norm
 from assetgen.core.stl import merge_vertices, parse_stl_triangles_mm
 
 MM = 0.001
@@ -223,7 +224,7 @@ def _check_frame(frame: Frame, name: str) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(
             f"{name}.quat = {frame.quat!r}; expected a finite non-zero quaternion (w, x, y, z)"
         )
-    return pos, quat / np.linalg.norm(quat)
+    return pos, quat / norm(quat)
 
 
 def _check_mass(mass: float, com: np.ndarray, inertia: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -46,6 +46,7 @@ from pxr import Gf, Sdf, Vt
 
 from assetgen.core.frames import Frame
 from assetgen.core.mesh import Mesh
+from assetgen.core.portable import norm
 from assetgen.core.rotations import matrix_to_quat
 
 ROOT = "module"
@@ -103,7 +104,7 @@ def _check_frame(frame: Frame, name: str) -> np.ndarray:
         raise ValueError(
             f"{name}.quat = {frame.quat!r}; expected a finite non-zero quaternion (w, x, y, z)"
         )
-    return quat / np.linalg.norm(quat)
+    return quat / norm(quat)
 
 
 def _check_scalar(value: float, name: str, lo: float, hi: float, what: str) -> None:

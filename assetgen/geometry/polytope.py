@@ -11,12 +11,14 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection
 
+from assetgen.core.portable import dot, matmul
+
 
 def transform_planes(planes: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """Planes (k, 4) rows [n, d] meaning n . x <= d, moved by the (4, 4) transform `matrix`."""
     r, p = matrix[:3, :3], matrix[:3, 3]
-    n = planes[:, :3] @ r.T
-    return np.column_stack([n, planes[:, 3] + n @ p])
+    n = matmul(planes[:, :3], r.T)
+    return np.column_stack([n, planes[:, 3] + dot(n, p)])
 
 
 def offset_planes(planes: np.ndarray, distance: float | np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ import numpy as np
 
 from assetgen.core.frames import Frame
 from assetgen.core.mesh import Mesh, cross3
+from assetgen.core.portable import dot, matmul, norm
 from assetgen.geometry.polytope import (
     interior_point,
     offset_planes,
@@ -71,8 +72,8 @@ def cross_section(p: ModuleParams) -> np.ndarray:
     c, s = math.cos(p.squash_angle), math.sin(p.squash_angle)
     rot = np.array([[c, -s], [s, c]])
     # Squash along the axis at squash_angle: R diag(aspect, 1) R^T keeps convexity and CCW order.
-    squash = rot @ np.diag([p.aspect_ratio, 1.0]) @ rot.T
-    return pts @ squash.T
+    squash = matmul(matmul(rot, np.diag([p.aspect_ratio, 1.0])), rot.T)
+    return matmul(pts, squash.T)
 
 
 def peg_mesh(p: ModuleParams) -> Mesh:
@@ -114,8 +115,8 @@ def peg_planes(p: ModuleParams) -> np.ndarray:
     normals = cross3(a1 - a0, b0 - a0)
     rows = []
     for k in range(n):
-        normal = normals[k] / np.linalg.norm(normals[k])
-        rows.append([*normal, normal @ a0[k]])
+        normal = normals[k] / norm(normals[k])
+        rows.append([*normal, float(dot(normal, a0[k]))])
     rows.append([0.0, 0.0, -1.0, 0.0])
     return np.array(rows)
 
@@ -128,7 +129,7 @@ def hole_rotation(p: ModuleParams) -> np.ndarray:
     rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
     ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
     rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rx @ ry @ rz
+    return matmul(matmul(rx, ry), rz)
 
 
 def task_frames(p: ModuleParams) -> tuple[Frame, Frame, Frame]:
@@ -167,7 +168,7 @@ def sleeve_half_spaces(
     """
     extra = np.full(len(hole_planes), p.sleeve_wall)
     extra[-1] = p.floor_thickness  # the floor plane is the last row of peg_planes
-    local = (hole_vertices - design_m[:3, 3]) @ design_m[:3, :3]
+    local = matmul(hole_vertices - design_m[:3, 3], design_m[:3, :3])
     lo = local[:, :2].min(axis=0) - p.sleeve_wall
     hi = local[:, :2].max(axis=0) + p.sleeve_wall
     box = np.array(
