@@ -2,7 +2,7 @@
 metres, the peg lifted along the hole axis, the section cut, filters and the grid layout.
 
 Everything here is in the module frame (origin at the centre of the plate's top surface,
-z up), in metres; the STL files it reads are millimetres (see design.md).
+z up), in metres; the STL files it reads are millimetres (see docs/module.md).
 """
 
 from __future__ import annotations
