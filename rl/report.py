@@ -36,7 +36,7 @@ PAPER_SUCCESS_PCT: dict[str, tuple[float, float]] = {
     "SAC-STACK": (82.97, 54.70),
     "DreamerV3": (94.32, 93.94),
 }
-"""Table III of the paper (Orsula et al., iSpaRo 2024): variant -> (train set, test set) success in %."""
+"""Table III of the paper (Orsula et al., iSpaRo 2024): variant -> (train, test) success, %."""
 PAPER_MEDIAN_TEST_S: dict[str, float] = {"SAC-STACK": 2.22, "DreamerV3": 1.60}
 """Paper: median time until success on the test set, seconds."""
 ROW_ORDER = ("random", "PPO", "PPO-STACK", "SAC", "SAC-STACK", "DreamerV3", "scripted")
