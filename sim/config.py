@@ -2,6 +2,8 @@
 
 Every number of the task (the paper's, see docs/task.md) lives in `TaskConfig`; how MuJoCo is
 made to behave (controller gains, contact softness) lives in `PhysicsConfig`, nested in it.
+PhysicsConfig is the project's one MuJoCo configuration (assetgen.core.mujoco_config): the
+exported MJCF files carry the same settings.
 """
 
 from __future__ import annotations
@@ -9,68 +11,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from assetgen.core.mujoco_config import PhysicsConfig
 
-@dataclass(frozen=True)
-class PhysicsConfig:
-    """MuJoCo settings: integration, the velocity controller and contact softness."""
-
-    timestep: float = 0.005
-    """Physics step, s (200 Hz)."""
-    substeps: int = 4
-    """Physics steps per control step (50 Hz control), run in C with no Python between."""
-    integrator: str = "discrete"
-    """MuJoCo integrator. `discrete` solves the contacts in the same effective inertia
-    (M + h D) that integrates the controller's damping implicitly; under `implicitfast`
-    that damping (h kv ~ M) diluted each contact impulse and a full-speed impact sank
-    1.9 mm instead of <= 1.1 mm (measured, see scene.py)."""
-    tracking_time_constant: float = 0.005
-    """Time constant of the velocity controller, s: kv = mass / tau (linear) and
-    I_max / tau (angular, I_max the largest principal inertia about the bottom-face centre),
-    each capped so no command asks for more than `force_limit`. One timestep is fine:
-    the damping is integrated implicitly."""
-    force_limit: float = 20.0
-    """Most force a command can ask of a linear actuator, N: the gain is capped at
-    force_limit / (2.2 x max_lin_vel), so even a full command reversal stays below it, and
-    pushing into a wall at full command presses with kv x max_lin_vel = 9.1 N at most. The
-    actuator is not clamped to it (see sim/scene.py): a clamped damper integrated implicitly
-    spun knocked pegs up to km/s; past the limit only a contact's knock can take the peg."""
-    torque_limit: float = 1.5
-    """Most torque a command can ask of an angular actuator, N m (gain capped as for the
-    force)."""
-    # No contact margin: in MuJoCo 4 a margin moves the contact surface out by that much
-    # (forces act from distance `margin`), which would eat into the 1 mm clearance.
-    contact_timeconst: float = 0.005
-    """Contact stiffness time constant T0, s: every contact spring has k = 1 / T0^2 and
-    solref = (T0 / zeta, zeta) for its damping ratio zeta, so solref[0] * solref[1] = T0.
-    Under the `discrete` integrator a row is resolvable (kept as authored) when
-    solref[0] * solref[1] >= timestep, hence T0 = timestep: the stiffest resolvable spring.
-    (The "solref[0] >= 2 timestep" rule belongs to the continuous-time integrators, whose
-    explicit constraint spring it keeps stable.) At full speed the transient penetration
-    stays within one physics step's travel (1.25 mm); 2 x timestep would give ~1.9 mm."""
-    solimp: tuple[float, float, float, float, float] = (0.99, 0.9999, 0.0005, 0.5, 2.0)
-    """Contact impedance (dmin, dmax, width m, midpoint, power). An impedance near 1 makes the
-    constraint nearly hard: steady penetration = F (1 - d) / (d^2 k m_eff), micrometres at
-    the force limit, where the default (0.9, 0.95, 0.001) lets a 0.2 kg peg sink ~0.4 mm."""
-    cone: str = "elliptic"
-    """Friction cone: elliptic (with impratio) models Coulomb friction more faithfully."""
-    impratio: float = 10.0
-    """Frictional-to-normal impedance ratio: > 1 makes friction stiffer (less creep)."""
-    noslip_iterations: int = 0
-    """Extra no-slip solver iterations (0: off)."""
-    iterations: int = 30
-    """Constraint solver (Newton) iterations per physics step at most."""
-    runaway_speed: float = 10.0
-    """A peg moving faster than this (m/s, 40 x the fastest command) or turning faster than
-    10 x this (rad/s) has left physics: its env is reset and reported unstable like a
-    non-finite one. No contact of a 9 N controller comes near it; a solver blow-up passes it
-    within a step or two (pegs that spun up reached km/s), before such states reach a
-    learner."""
-    multiccd: bool = True
-    """Several contacts per convex pair, so a flat face rests on a flat face without
-    rocking on one point."""
-    min_dampratio: float = 0.85
-    """Contact damping ratio at restitution 1 (restitution 0: 1.0, linear between). Below
-    ~0.8 a peg pushed into a wall chatters forever at 200 Hz (see scene.py)."""
+__all__ = ["EVAL_CONFIG", "PhysicsConfig", "TaskConfig"]
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,8 @@ import math
 import mujoco
 import numpy as np
 
+from assetgen.core.mujoco_config import apply_to_spec, geom_friction, velocity_gains
+from assetgen.core.mujoco_config import contact_solref as contact_solref
 from sim.assets import ModuleAsset
 from sim.config import PhysicsConfig
 
@@ -55,12 +57,6 @@ def restitution_to_dampratio(e: np.ndarray | float, min_dampratio: float) -> np.
     return 1.0 - e * (1.0 - min_dampratio)
 
 
-def contact_solref(dampratio: np.ndarray | float, physics: PhysicsConfig) -> np.ndarray:
-    """(..., 2) solref for the given damping ratios with the stiffness k = 1/tau^2 fixed."""
-    z = np.asarray(dampratio, dtype=float)
-    return np.stack([physics.contact_timeconst / z, z], axis=-1)
-
-
 def rotational_kv(asset: ModuleAsset, physics: PhysicsConfig) -> float:
     """Angular gain: the largest principal inertia about the bottom-face centre / tau."""
     c = asset.peg_com
@@ -70,37 +66,12 @@ def rotational_kv(asset: ModuleAsset, physics: PhysicsConfig) -> float:
 
 
 def _set_options(spec: mujoco.MjSpec, physics: PhysicsConfig) -> None:
-    opt = spec.option
-    opt.timestep = physics.timestep
-    opt.gravity = [0.0, 0.0, 0.0]
-    # `discrete` (default): the constraint solve uses the same effective inertia M + h D as
-    # the implicit velocity controller. Under `implicitfast` the controller's implicit
-    # damping (h kv ~ M) diluted every contact impulse: a full-speed impact sank 1.9 mm.
-    opt.integrator = {
-        "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
-        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    }[physics.integrator]
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    opt.iterations = physics.iterations
-    opt.cone = {
-        "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC,
-        "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL,
-    }[physics.cone]
-    opt.impratio = physics.impratio
-    opt.noslip_iterations = physics.noslip_iterations
-    if not physics.multiccd:
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MULTICCD
-    # A diverging env must be seen, not silently reset to qpos0 by MuJoCo: the env layer
-    # resets it itself and reports it (info["unstable"]).
-    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-    # Under `discrete` every contact row is resolvable by construction (solref[0] *
-    # solref[1] = T0 >= h); with refsafe on, rounding of T0 / zeta * zeta just below h would
-    # swap a row for MuJoCo's replacement spring, which made a pressed peg chatter.
-    if physics.integrator == "discrete":
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
-    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    """The shared option block (assetgen.core.mujoco_config.apply_to_spec; the exported MJCF
+    carries the same).
+    `discrete` (default): the constraint solve uses the same effective inertia M + h D as
+    the implicit velocity controller. Under `implicitfast` the controller's implicit
+    damping (h kv ~ M) diluted every contact impulse: a full-speed impact sank 1.9 mm."""
+    apply_to_spec(spec, physics)
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -127,7 +98,7 @@ def add_environment(
     `collision_bit` is the contype of the peg and the conaffinity of the pieces, so a peg
     only touches modules that share its bit.
     """
-    solref = contact_solref(1.0, physics).tolist()
+    solref = contact_solref(physics.dampratio, physics).tolist()
     solimp = list(physics.solimp)
     for i, piece in enumerate(asset.pieces):
         _add_mesh(spec, f"{prefix}piece{i}", piece.vertices, piece.faces)
@@ -172,7 +143,7 @@ def add_environment(
     g.conaffinity = 0
     g.priority = 1
     g.condim = 3
-    g.friction = [0.5, 0.005, 0.0001]
+    g.friction = geom_friction(physics)
     g.solref = solref
     g.solimp = solimp
     site = body.add_site()
@@ -180,10 +151,9 @@ def add_environment(
 
     # no command asks for more than the limit: a reversal from -max to +max velocity needs
     # kv * 2 * max <= limit (2.2 for a margin)
-    kv_lin = min(
-        asset.peg_mass / physics.tracking_time_constant, physics.force_limit / (2.2 * max_lin_vel)
+    kv_lin, kv_rot = velocity_gains(
+        asset.peg_mass, asset.peg_com, asset.peg_inertia, physics, max_lin_vel, max_ang_vel
     )
-    kv_rot = min(rotational_kv(asset, physics), physics.torque_limit / (2.2 * max_ang_vel))
     for k in range(6):
         a = spec.add_actuator()
         a.name = f"{prefix}vel{k}"

@@ -4,8 +4,8 @@ signatures, same results (tests/test_sim_kernel.py holds the two together).
 The env runs these where numba is not installed (a machine whose Python numba does not
 support yet, or a GPU box the wheels are not carried to) and when asked
 (`PegInHoleVecEnv(kernels="numpy")`, `assetgen bench sim --kernels numpy`). They are the
-step as it was written before it was compiled: about a hundred array calls, built from the
-task functions of sim/task.py.
+step in plain numpy: about a hundred array calls, built from the task functions of
+sim/task.py.
 """
 
 from __future__ import annotations

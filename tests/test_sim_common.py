@@ -33,7 +33,7 @@ def sim_dataset() -> Path:
     tmp = Path(tempfile.mkdtemp(prefix="sim-tests-"))
     atexit.register(shutil.rmtree, tmp, ignore_errors=True)
     root = tmp / "ds"
-    spec = DatasetSpec("t", SEED_START, COUNT, SamplerConfig(), ("collision",))
+    spec = DatasetSpec("t", SEED_START, COUNT, SamplerConfig(), ("collision", "mjcf"))
     summary = generate(root, spec, workers=1, progress=False)
     assert not summary.failures
     return root

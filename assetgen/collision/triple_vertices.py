@@ -2,18 +2,17 @@
 
 A module's exact decomposition cuts ~30 cells of 6 - 71 planes each. Every triple of a
 cell's planes is solved (Cramer's rule) and the point kept if it satisfies all the cell's
-planes. As numpy over all triples at once this took ~3.4 ms a module, mostly temporaries of
+planes. As numpy over all triples at once this takes ~3.4 ms a module, mostly temporaries of
 (systems, triples, planes) shape; one compiled loop that stops testing a point at the first
 plane it violates takes a fraction of that. Hand-written (numba) because no library solves
 many tiny vertex enumerations at once: qhull's HalfspaceIntersection needs an interior point
 (a linear program) and costs ~100 us a call.
 
-Arithmetic: the same operations as the numpy form it replaced, in the same order where
-numpy's order is defined (cross products, Cramer's sums); its dot products (einsum) summed
-in an order numpy does not fix, so a coordinate may differ in its last bit. The vertices are
-snapped to a 20 nm grid afterwards (assetgen.decomposition.SNAP), which absorbs that: the
-pieces of seeds 0 - 299 (9510) came out the same as with the numpy form, up to the sign of
-zero (which the decomposition now normalises).
+Arithmetic: the same operations as that numpy form, in the same order where numpy's order
+is defined (cross products, Cramer's sums); numpy sums its dot products (einsum) in an order
+it does not fix, so a coordinate may differ in its last bit. The vertices are snapped to a
+20 nm grid afterwards (assetgen.collision.exact.SNAP), which absorbs that: the pieces equal
+the numpy form's up to the sign of zero, which the decomposition normalises.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ numpy hands `@`, `np.dot` and `np.linalg.norm` of a 1-D array to OpenBLAS, which
 kernel at run time: with AVX-512 its dot product fuses each multiply-add (one rounding),
 without it rounds twice, and older kernels sum in another order. The last bits of a hole
 plane then differ between machines, and manifold3d's boolean can triangulate the module
-differently: the same seed gave other files on another CPU. numpy's power `x ** 3` likewise
+differently: the same seed would give other files on another CPU. numpy's power `x ** 3` likewise
 uses SVML with AVX-512 and the C library without it.
 
 Here every product is an elementwise multiply and every sum runs left to right over the

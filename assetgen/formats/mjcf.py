@@ -18,16 +18,19 @@ names them by relative path, so the folder can be moved as a whole. Everything i
   file alone is enough for the checks in `assetgen.physics.mjcf_checks`.
 - Gravity is 0: in the task the peg is held by a manipulator standing on the module's body.
 
-Contact softness is the point of `ContactConfig`: with MuJoCo's defaults a 0.2 kg peg sinks
-0.3 - 0.4 mm into the floor under 5 N, a third of the 1 mm clearance. The defaults below were
-measured with `assetgen.physics.mjcf_checks` (see ContactConfig and tests/test_mjcf_export.py).
+Physics: the file carries the project's one MuJoCo configuration, the simulator's
+(assetgen.core.mujoco_config.PhysicsConfig): its option block, contact solref/solimp at the
+nominal damping ratio and friction, and the simulator's six velocity actuators on
+`peg_bottom` (reference: the site `origin`), with gains from the peg's mass properties. With
+command 0 (the default) they are the damper that holds the peg as the task's controller
+does; ctrl is a velocity in the module frame (m/s, rad/s). `assetgen physics` thus checks
+the physics agents train on.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -36,6 +39,13 @@ import numpy as np
 from assetgen.checks.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.core.frames import Frame
 from assetgen.core.mesh import Mesh
+from assetgen.core.mujoco_config import (
+    PhysicsConfig,
+    actuator_xml,
+    geom_default_xml,
+    option_xml,
+    velocity_gains,
+)
 from assetgen.core.portable import norm
 from assetgen.core.stl import merge_vertices, parse_stl_triangles_mm
 
@@ -43,7 +53,7 @@ MM = 0.001
 """Metres per STL unit (the STL files are millimetres)."""
 __all__ = [
     "CONVEX_TOLERANCE",
-    "ContactConfig",
+    "PhysicsConfig",
     "mjcf_document",
     "read_checked_mesh",
     "write_mjcf",
@@ -53,115 +63,10 @@ CLEARANCE_NUMERIC = "clearance"
 PEG_BODY = "peg"
 PEG_JOINT = "peg_free"
 PEG_GEOM = "peg"
-SITES = ("entrance", "bottom", "peg_bottom")
-
-
-@dataclass(frozen=True)
-class ContactConfig:
-    """MuJoCo physics and contact settings written into the MJCF (SI units).
-
-    Goal: a 0.2 kg peg pressed into a wall or the floor with ~5 N sinks far less than the
-    1 mm clearance, and stays put (no chatter), at the paper's 200 Hz. With MuJoCo's
-    defaults (solref 0.02, solimp 0.9/0.95) it sinks 0.3 - 0.4 mm. Steady penetration of a
-    contact row with constant impedance d, time constant T and damping ratio z under an
-    unconstrained acceleration a into the surface is  r = a (1 - d) T^2 z^2  (MuJoCo docs),
-    shared among the rows that hold the peg. T >= 2 x timestep keeps the spring stable under
-    the standard integrators (refsafe would clamp a smaller T anyway), so stiffness has to
-    come from d; but a too stiff contact (d >= 0.995, or impratio 10, or a pyramidal cone)
-    chatters where the peg is wedged into a V between two walls: each wall's push moves the
-    peg off the other, the contact is lost for a step, and the next step under the full
-    force drives it ~0.6 mm in. The defaults are the stiffest measured to settle everywhere.
-
-    Measured (assetgen.physics.mjcf_checks, 5 N, speed-guarded approach, orientation held) on the
-    64 modules of seeds 0-23 and 100-139 at friction 0.3, 0.5 and 1.0: every push settled,
-    none passed a wall; at rest the floor penetration (weight + 5 N) <= 27 um and the wall
-    penetration <= 33 um (<= 0.1 mm in the worst of 16 directions: a squashed triangle
-    wedged into its 22 deg corner, which multiplies the normal force ~5x); on the 20 x 20 mm
-    test peg 20 um (floor) and 7 um (wall). With 20 N (the sim's force limit): <= 83 um.
-    MuJoCo's defaults on the same modules: 0.41 mm (floor), 0.26 mm (wall). At friction 0.1
-    some tapered pegs pushed sideways with no axial force climb their sloped walls out of the
-    hole (an allowed motion, reported as not settled). Candidates that chattered in some of
-    those pushes: d = 0.99 with z = 1 (8 of 192), d = 0.995 with z = 1.5 (7), impratio 10
-    (7), the discrete integrator (T = h or 2h).
-    """
-
-    timestep: float = 0.005
-    """Physics step, s: 200 Hz, the paper's physics rate."""
-    integrator: str = "implicitfast"
-    """MuJoCo's recommended integrator: Euler's cost, implicit velocity damping for any
-    controller a simulator adds. Measured identical to Euler here (no damping in this file);
-    MuJoCo 4's `discrete` chattered in V corners at friction 0.3 with T = h and T = 2h."""
-    solver: str = "Newton"
-    """Constraint solver: converges in a few iterations on these small problems."""
-    iterations: int = 50
-    """Solver iterations per step at most (Newton stops far earlier when converged)."""
-    solref: tuple[float, float] = (0.01, 1.5)
-    """(time constant s, damping ratio). T = 2 x timestep: the stiffest spring the standard
-    integrators take (refsafe clamps to it). Damping ratio 1.5 (overdamped, k lower by 1.5^2):
-    the penetration is removed without overshoot, so the peg does not lose contact; about
-    as stiff with damping ratio 1 (d = 0.98 or 0.97) still chattered in 1 - 2 of 192."""
-    solimp: tuple[float, float, float, float, float] = (0.99, 0.99, 0.001, 0.5, 2.0)
-    """(dmin, dmax, width m, midpoint, power): constant impedance 0.99, so the penetration is
-    linear in the force (width is then irrelevant): (1 - d) T^2 z^2 is 9 - 18x smaller than
-    with MuJoCo's defaults (0.9 - 0.95, T = 0.02). 0.995 chattered (see above)."""
-    friction: tuple[float, float, float] = (0.5, 0.005, 0.0001)
-    """(sliding, torsional, rolling) friction: 0.5 sliding is typical of printed plastics
-    (the simulator randomises it per reset anyway; 0.1 - 1.0 was measured)."""
-    condim: int = 3
-    """Contact dimensionality: normal + 2 tangential (sliding friction). Flat faces rest on
-    several contact points (multiccd), which resist twisting without torsional friction."""
-    margin: float = 0.0
-    """Contact margin, m. Kept 0: a margin makes the constraint act before the surfaces touch,
-    holding the peg `margin` off every wall (the clearance shrinks by it), and 20 - 50 um
-    margins did not stop the chatter of stiffer settings."""
-    cone: str = "elliptic"
-    """Friction cone: elliptic is Coulomb's cone. Pyramidal let pushed pegs chatter and go
-    through walls with these stiff contacts."""
-    impratio: float = 1.0
-    """Frictional-to-normal impedance ratio (elliptic cones). 10 (stiffer friction) chattered
-    at friction 0.3; the price of 1 is slow creep along a wall under a sideways load
-    (~0.1 mm/s at friction 1), harmless to the clearance."""
-    noslip_iterations: int = 0
-    """Extra no-slip solver passes: 5 - 10 did not settle the stiffer settings and left larger
-    resting penetrations; off."""
-    multiccd: bool = True
-    """Several contact points per convex pair, so a flat face rests flat instead of rocking on
-    one point (enabled by default in MuJoCo 4, written explicitly for 3.x)."""
-
-    def validate(self) -> ContactConfig:
-        """Raise ValueError naming each out-of-range field; return self."""
-        bad = []
-        if not (np.isfinite(self.timestep) and self.timestep > 0):
-            bad.append(f"timestep = {self.timestep!r} (expected > 0 s)")
-        if self.integrator not in ("Euler", "RK4", "implicit", "implicitfast", "discrete"):
-            bad.append(f"integrator = {self.integrator!r} (a MuJoCo integrator name)")
-        if self.solver not in ("Newton", "CG", "PGS"):
-            bad.append(f"solver = {self.solver!r} (Newton, CG or PGS)")
-        if self.cone not in ("elliptic", "pyramidal"):
-            bad.append(f"cone = {self.cone!r} (elliptic or pyramidal)")
-        if len(self.solref) != 2 or not self.solref[0] > 0 or not self.solref[1] > 0:
-            bad.append(f"solref = {self.solref!r} (time constant > 0, damping ratio > 0)")
-        elif self.integrator != "discrete" and self.solref[0] < 2 * self.timestep - 1e-12:
-            bad.append(
-                f"solref[0] = {self.solref[0]!r} s (must be >= 2 x timestep = "
-                f"{2 * self.timestep!r} s, or MuJoCo's contact spring goes unstable)"
-            )
-        imp = self.solimp
-        if len(imp) != 5 or not (0 < imp[0] < 1 and 0 < imp[1] < 1 and imp[2] >= 0):
-            bad.append(f"solimp = {imp!r} (0 < dmin, dmax < 1, width >= 0, midpoint, power)")
-        if len(self.friction) != 3 or min(self.friction) < 0:
-            bad.append(f"friction = {self.friction!r} (three values >= 0)")
-        if self.condim not in (1, 3, 4, 6):
-            bad.append(f"condim = {self.condim!r} (1, 3, 4 or 6)")
-        if not self.margin >= 0:
-            bad.append(f"margin = {self.margin!r} (>= 0 m)")
-        if not self.impratio >= 1:
-            bad.append(f"impratio = {self.impratio!r} (>= 1)")
-        if self.iterations < 1 or self.noslip_iterations < 0:
-            bad.append("iterations must be >= 1 and noslip_iterations >= 0")
-        if bad:
-            raise ValueError("ContactConfig: " + "; ".join(bad))
-        return self
+SITES = ("entrance", "bottom", "peg_bottom", "origin")
+ORIGIN_SITE = "origin"
+"""World site at the module origin: the actuators' reference frame (velocities in the module
+frame), as the simulator's `ref_site`."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -282,7 +187,7 @@ def mjcf_text(
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
     clearance: float,
-    contact: ContactConfig,
+    contact: PhysicsConfig,
 ) -> str:
     """The MJCF document as text (arguments as in `write_mjcf`, already validated)."""
     c = contact
@@ -299,30 +204,25 @@ def mjcf_text(
         inertia[1, 2],
     ]
     scale = _vec([MM, MM, MM])
+    kv_lin, kv_rot = velocity_gains(float(peg_mass), com, inertia, c)
     site_size = _num(max(clearance, 0.5e-3))
     lines = [
         '<mujoco model="peg_in_hole">',
         "  <!-- assetgen: units m, kg, s; the STL meshes are millimetres (scale 0.001).",
         "       Module frame = world frame; the body `peg` has the peg frame as its frame. -->",
         '  <compiler angle="radian" inertiafromgeom="false"/>',
-        f'  <option timestep="{_num(c.timestep)}" gravity="0 0 0" integrator="{c.integrator}"'
-        f' solver="{c.solver}" iterations="{c.iterations}" cone="{c.cone}"'
-        f' impratio="{_num(c.impratio)}" noslip_iterations="{c.noslip_iterations}">',
-        f'    <flag multiccd="{"enable" if c.multiccd else "disable"}"/>',
-        "  </option>",
+        *option_xml(c),
         "  <custom>",
         f'    <numeric name="{CLEARANCE_NUMERIC}" data="{_num(clearance)}"/>',
         "  </custom>",
         "  <default>",
-        f'    <geom type="mesh" condim="{c.condim}" friction="{_vec(c.friction)}"'
-        f' solref="{_vec(c.solref)}" solimp="{_vec(c.solimp)}" margin="{_num(c.margin)}"'
-        f' gap="0"/>',
+        f'    <geom type="mesh" {geom_default_xml(c)}/>',
         f'    <site size="{site_size}" rgba="1 0.3 0.1 1"/>',
         '    <default class="module">',
         '      <geom contype="0" conaffinity="1" group="1" rgba="0.6 0.6 0.65 1"/>',
         "    </default>",
         '    <default class="peg">',
-        '      <geom contype="1" conaffinity="0" rgba="0.2 0.5 0.9 1"/>',
+        '      <geom contype="1" conaffinity="0" priority="1" rgba="0.2 0.5 0.9 1"/>',
         "    </default>",
         "  </default>",
         "  <asset>",
@@ -335,6 +235,7 @@ def mjcf_text(
         "  <worldbody>",
         f'    <site name="entrance" pos="{_vec(ent_pos)}" quat="{_vec(ent_quat)}"/>',
         f'    <site name="bottom" pos="{_vec(bot_pos)}" quat="{_vec(bot_quat)}"/>',
+        f'    <site name="{ORIGIN_SITE}" pos="0 0 0"/>',
     ]
     for i in range(len(piece_files)):
         lines.append(f'    <geom name="piece_{i:03d}" class="module" mesh="piece_{i:03d}"/>')
@@ -346,6 +247,7 @@ def mjcf_text(
         '      <site name="peg_bottom" pos="0 0 0"/>',
         "    </body>",
         "  </worldbody>",
+        *actuator_xml("peg_bottom", ORIGIN_SITE, kv_lin, kv_rot),
         "</mujoco>",
         "",
     ]
@@ -386,7 +288,7 @@ def mjcf_document(
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
     clearance: float,
-    contact: ContactConfig = ContactConfig(),
+    contact: PhysicsConfig = PhysicsConfig(),  # noqa: B008 (frozen)
     written: Mapping[str, bytes] | None = None,
     parsed: Mapping[str, np.ndarray] | None = None,
     name: str = "the MJCF",
@@ -401,7 +303,8 @@ def mjcf_document(
     peg_mass    : kg.  peg_com: (3,) m, peg frame.  peg_inertia: (3, 3) kg m^2 about the
                   COM, axes of the peg frame.
     clearance   : m, stored in the file for the physics checks.
-    contact     : physics and contact settings (see ContactConfig).
+    contact     : the MuJoCo configuration (the simulator's; see
+                  assetgen.core.mujoco_config.PhysicsConfig).
     written     : the bytes of mesh files just written, by name (the module writer's): they
                   are checked and compiled instead of reading the files back, which costs
                   as much as the checks; files not in it are read.

@@ -1,7 +1,7 @@
 """Volume, centre of mass and inertia of a closed triangle mesh (divergence theorem).
 
-The integrals are trimesh's (Eberly, "Polyhedral Mass Properties"), with its `x ** 3`
-replaced by x * x * x: numpy's power takes other last bits on CPUs with AVX-512, and the
+The integrals are trimesh's (Eberly, "Polyhedral Mass Properties"), with x * x * x where
+trimesh has `x ** 3`: numpy's power takes other last bits on CPUs with AVX-512, and the
 inertia written into the MJCF and USD files must be the same on every machine.
 """
 

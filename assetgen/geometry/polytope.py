@@ -2,7 +2,7 @@
 
 The peg, its hole and the sleeve are all intersections of half-spaces; keeping them in this
 form makes the clearance exact (a plane moved by `c` along its unit normal) and gives the
-convex decomposition of the module for free (see decomposition.py).
+convex decomposition of the module for free (see assetgen/collision/exact.py).
 """
 
 from __future__ import annotations

@@ -155,9 +155,12 @@ def _push(
     pen = np.zeros(max_steps)
     level = full if speed is None else 0.0
     quiet = 0
+    damping = None
     for k in range(max_steps):
         mujoco.mj_step1(m, d)
         pen[k] = s.penetration()
+        if damping is None:
+            damping = _linear_damping(s, u)
         if speed is not None:
             # free joint: qvel[:3] is the velocity of the body frame's origin (world frame);
             # the COM's adds the rotation's share (qvel[3:] is in the body frame)
@@ -165,7 +168,11 @@ def _push(
             spin = np.cross(d.qvel[s.dof + 3 : s.dof + 6], m.body_ipos[s.body])
             v = d.qvel[s.dof : s.dof + 3] + rot @ spin
             if not s.touching():
-                level = float(np.clip(mass * (speed - v @ u) / m.opt.timestep, 0.0, full))
+                # implicit damping c (the file's velocity actuators at command 0):
+                # m (v' - v) = h (F - c v'), so v' = speed needs F = m (speed - v) / h + c speed
+                level = float(
+                    np.clip(mass * (speed - v @ u) / m.opt.timestep + damping * speed, 0.0, full)
+                )
             elif np.linalg.norm(v) <= speed:
                 level = min(full, level + full / ramp)
             else:
@@ -178,6 +185,25 @@ def _push(
         if quiet >= rest_steps:
             return pos[: k + 1], pen[: k + 1], True
     return pos, pen, False
+
+
+def _linear_damping(s: _Scene, u: np.ndarray) -> float:
+    """Damping (N s/m) of the file's actuators against a translation of the peg along unit
+    `u` at their current commands' bias: sum over velocity actuators (affine bias
+    -kv x velocity) of kv (moment . u)^2. 0 for a file without actuators. Needs the
+    transmission of the current state (mj_step1 or mj_forward)."""
+    m, d = s.model, s.data
+    if m.nu == 0:
+        return 0.0
+    moment = np.zeros((m.nu, m.nv))
+    mujoco.mju_sparse2dense(
+        moment, d.actuator_moment, d.moment_rownnz, d.moment_rowadr, d.moment_colind
+    )
+    kv = np.where(
+        m.actuator_biastype == mujoco.mjtBias.mjBIAS_AFFINE, -m.actuator_biasprm[:, 2], 0.0
+    )
+    along = moment[:, s.dof : s.dof + 3] @ u
+    return float(np.sum(kv * along**2))
 
 
 def _free_travel(
