@@ -352,32 +352,36 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-EXTRAS = {
-    "scipy": "cad",
-    "manifold3d": "cad",
-    "trimesh": "cad",
-    "fcl": "cad",
-    "coacd": "cad",
-    "pxr": "cad",
-    "torch": "rl",
-    "safetensors": "rl",
-    "gymnasium": "rl",
-    "tensorboard": "rl",
-    "matplotlib": "rl",
-    "viser": "view",
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "scipy": ("cad",),
+    "manifold3d": ("cad", "view"),
+    "trimesh": ("cad", "view"),
+    "fcl": ("cad",),
+    "coacd": ("cad",),
+    "pxr": ("cad",),
+    "torch": ("rl",),
+    "safetensors": ("rl",),
+    "gymnasium": ("rl",),
+    "tensorboard": ("rl",),
+    "matplotlib": ("rl",),
+    "viser": ("view",),
 }
-"""Top-level module -> the extra of pyproject.toml that installs it."""
+"""Top-level module -> the extras of pyproject.toml that install it."""
+COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl"}
+"""The extra to name first for a command, where a module comes with several."""
 
 
 def missing_extra_message(command: str, module: str) -> str | None:
     """The one-line advice for a missing optional library (None: not an optional one)."""
-    extra = EXTRAS.get(module.split(".")[0])
-    if extra is None:
+    top = module.split(".")[0]
+    extras = EXTRAS.get(top)
+    if extras is None:
         return None
+    extra = COMMAND_EXTRA.get(command) if COMMAND_EXTRA.get(command) in extras else extras[0]
     return (
-        f"`assetgen {command}` needs the Python package {module.split('.')[0]!r}, which "
-        f'comes with the [{extra}] extra: pip install "peg-in-hole-assetgen[{extra}]" '
-        f'(in a checkout: pip install -e ".[{extra}]")'
+        f"`assetgen {command}` needs the Python package {top!r}, which comes with the "
+        f'[{extra}] extra: pip install "peg-in-hole-assetgen[{extra}]" (in a checkout: '
+        f'pip install -e ".[{extra}]")'
     )
 
 

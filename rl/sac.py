@@ -30,8 +30,8 @@ class SACConfig:
     layer_norm: bool = False
     """LayerNorm before every hidden activation of the actor and the critics: it bounds the
     hidden features whatever the input's scale, so one far-out observation cannot send the
-    critics' outputs and gradients off (on in the cpu preset; whether it is still needed
-    since runaway pegs are reset, see sim/scene.py, was not measured)."""
+    critics' outputs and gradients off (on in the cpu preset; whether resetting runaway pegs,
+    see sim/scene.py, makes it unnecessary is not measured)."""
     max_grad_norm: float | None = None
     """Clip the gradient norm of the critics and of the actor to this (None: no clipping);
     the norms before clipping are logged either way."""

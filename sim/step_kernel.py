@@ -8,7 +8,7 @@ throughput, compiled 0.87-0.91 (`assetgen bench sim --kernels numpy|numba`, one 
 The main thread's CPU time per step (time.thread_time, about 0.3 ms of it spent in the
 rollout call itself) is 1.07-1.27 ms compiled, 1.46-1.78 ms on numpy. What is left is mostly the
 noise draws (12,288 float32 normals, ~0.17 ms), kept on numpy's Generator so that seeded
-streams and exact resume are unchanged. Splitting the batch to score one part while the
+streams and exact resume are the same under both. Splitting the batch to score one part while the
 next steps (the rollout releases the GIL) gains nothing measurable on 2 cores, so the
 step stays serial. Written by hand because no library fuses it: MuJoCo's sensors could
 give the clean observation, but not the estimation noise, the quaternion form of the seat

@@ -385,3 +385,6 @@ def test_training_needs_no_cad_stack_nor_viewer(tmp_path: Path, numba: bool) -> 
     # and a command that needs them says which extra to install, in one line
     r = cli("sample", "--n", "1", "--out", str(tmp_path / "d"), "--quiet")
     assert r.returncode == 2 and "[cad] extra" in r.stderr and "Traceback" not in r.stderr
+    r = cli("view", data, "--html", str(tmp_path / "view.html"))
+    assert r.returncode == 2 and "[view] extra" in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1

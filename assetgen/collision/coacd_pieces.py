@@ -2,7 +2,8 @@
 
 Our modules have convex holes and use the exact decomposition; this path exists for parts
 whose hole is not convex (profiles, sockets). CoACD can eat into a 1 mm clearance, so its
-output always goes through the same clearance re-check as the exact pieces (collision.py).
+output always goes through the same clearance re-check as the exact pieces
+(assetgen/collision/pieces.py).
 """
 
 from __future__ import annotations

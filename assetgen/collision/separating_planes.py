@@ -14,11 +14,11 @@ Where the bound is tight: each exact collision piece lies beyond one hole plane 
 how the pieces are cut, see assetgen.collision.exact), and the seated peg's nearest point to
 that piece lies on the peg's face parallel to plane i, so with n the normal of plane i the
 bound equals the distance up to the float32 rounding of the stored vertices (within 5e-9 m
-of python-fcl's per-piece distance on the test split). Pieces beyond no hole plane (the far plate) are
-often not separated by any of those directions when the peg stands out above the plate: by
-the separating axis theorem, two disjoint convex polytopes are separated by a face normal of
-one of them or by the cross product of an edge of each, so those get a second pass with the
-crosses of the axes (the boxes' edges) and the peg's edges.
+of python-fcl's per-piece distance on the test split). Pieces beyond no hole plane (the far
+plate) are often not separated by any of those directions when the peg stands out above the
+plate: by the separating axis theorem, two disjoint convex polytopes are separated by a face
+normal of one of them or by the cross product of an edge of each, so those get a second pass
+with the crosses of the axes (the boxes' edges) and the peg's edges.
 """
 
 from __future__ import annotations

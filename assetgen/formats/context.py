@@ -1,4 +1,4 @@
-"""What a format exporter sees while one module is being written (see formats.registry)."""
+"""What a format exporter sees while one module is being written (see assetgen.formats.registry)."""
 
 from __future__ import annotations
 
