@@ -117,7 +117,7 @@ def cmd_physics(args: argparse.Namespace) -> int:
         root, _ = resolve(args.dataset)
     except DatasetError as e:
         return _err(str(e))
-    return report(root, args.limit, args.json)
+    return report(root, args.limit, args.json, args.workers)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -293,6 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     ph.add_argument("dataset", help="spec name or dataset folder")
     ph.add_argument("--limit", type=int, default=None, help="first N modules only")
     ph.add_argument("--json", type=Path, default=None, help="write per-module figures here")
+    ph.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     ph.set_defaults(func=cmd_physics)
 
     i = sub.add_parser("info", help="summary of a dataset's parameter distributions")

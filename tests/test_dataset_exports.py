@@ -98,3 +98,17 @@ def test_every_push_comes_to_rest(tiny_dataset):
         mid: check_module(paths["mjcf"])["unsettled"] for mid, paths, _ in _modules(tiny_dataset)
     }
     assert not any(unsettled.values()), unsettled
+
+
+def test_physics_report_in_parallel_gives_the_same_figures(tiny_dataset, tmp_path):
+    from assetgen.physics.report import report
+
+    outs = []
+    for workers in (1, 2):
+        out = tmp_path / f"physics_{workers}.json"
+        report(tiny_dataset, limit=2, json_out=out, workers=workers)
+        doc = json.loads(out.read_text())
+        for figures in doc["modules"].values():
+            figures.pop("seconds")
+        outs.append(doc)
+    assert outs[0] == outs[1] and len(outs[0]["modules"]) == 2
