@@ -36,7 +36,8 @@ def evaluate(
     episodes never end: RuntimeError when exceeded. `progress(done, total)` is called as
     episodes finish. `reset(mask)` (a recurrent policy's, e.g. Dreamer.reset) is called with
     an all-True mask after env.reset and with terminated | truncated after every step, so
-    the policy's state is carried through each episode and restarted at its end. Returns a JSON-ready dict:
+    the policy's state is carried through each episode and restarted at its end. Returns a
+    JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
         successes                  count
