@@ -18,7 +18,9 @@ uninterrupted one, on the same device and thread count) needs one of:
     one a crash or kill leaves) is then exact; resuming from one written when a run
     stopped on --steps/--minutes elsewhere is correct but not bit-identical.
 Counters, RNG states (torch CPU and CUDA, numpy's global, Python's), optimiser states, the
-SAC replay buffer and the episode-statistics window are all saved.
+SAC replay buffer, Dreamer's sequence replay (up to its checkpoint_replay_mb) and per-env
+recurrent state, and the episode-statistics window are all saved. A recurrent agent's
+`reset(mask)` is called after every env.reset (see Agent).
 A NaN/inf loss or action stops training with a message; the last good checkpoint is kept
 (a checkpoint is never written from non-finite weights).
 """

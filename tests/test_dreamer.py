@@ -3,6 +3,7 @@ and short runs through the runner (counters, checkpoints, exact resume, evaluati
 
 from __future__ import annotations
 
+import argparse
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import torch
 
 from rl import checkpoint as ckpt
+from rl.commands import eval_main
 from rl.dreamer.actor_critic import imagine
 from rl.dreamer.agent import Dreamer
 from rl.dreamer.config import DreamerConfig
@@ -248,7 +250,7 @@ def test_exact_resume(tmp_path) -> None:
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
-def test_evaluation_carries_and_resets_the_recurrent_state(tmp_path) -> None:
+def test_evaluation_carries_and_resets_the_recurrent_state(tmp_path, monkeypatch) -> None:
     _train(ToyEnv(4), tmp_path, steps=32)
     agent, _ = load_agent(tmp_path, "cpu")
     masks = []
@@ -264,4 +266,12 @@ def test_evaluation_carries_and_resets_the_recurrent_state(tmp_path) -> None:
     res = evaluate(agent.policy, ToyEnv(3, max_steps=6), 2, seed=0, reset=spy)
     assert res["episodes"] == 6 and masks[0].all() and len(masks[0]) == 3
     assert sum(m.sum() for m in masks[1:]) >= 6  # every episode end restarted its env
+    # `assetgen eval --checkpoint` passes the hook too (here with more envs than trained)
+    calls = []
+    real = Dreamer.reset
+    monkeypatch.setattr(Dreamer, "reset", lambda self, m: (calls.append(len(m)), real(self, m)))
+    args = argparse.Namespace(run=tmp_path, dataset="toy", episodes=1, envs=6, seed=0,
+                              device="cpu", stochastic=False, json=True, out=None)  # fmt: skip
+    assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n)) == 0
+    assert calls and set(calls) == {6}
     assert get_setup("debug", "dreamer").config.validate()
