@@ -275,3 +275,15 @@ def test_evaluation_carries_and_resets_the_recurrent_state(tmp_path, monkeypatch
     assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n)) == 0
     assert calls and set(calls) == {6}
     assert get_setup("debug", "dreamer").config.validate()
+
+
+def test_paper_preset_is_table_ii() -> None:
+    paper = get_setup("paper", "dreamer")
+    c = paper.config
+    assert (c.model_lr, c.actor_lr, c.critic_lr) == (1e-4, 3e-5, 3e-5)
+    assert (c.units, c.layers, c.deter, c.stoch, c.classes) == (512, 2, 512, 32, 32)
+    assert (c.replay_capacity, c.warmup_steps) == (20_000_000, 500_000)
+    assert (c.batch_size, c.batch_length, c.train_ratio) == (16, 64, 512.0)
+    assert (c.horizon, c.lam, c.gamma, c.entropy_coef) == (15, 0.95, 1 - 1 / 333, 3e-4)
+    assert (c.dyn_scale, c.rep_scale, c.free_nats, c.unimix) == (0.5, 0.1, 1.0, 0.01)
+    assert paper.num_envs == 1024 and paper.total_steps == 100_000_000
