@@ -10,7 +10,7 @@ the caller, so rl/ never imports the simulator; for a dataset it cannot use it r
 ValueError with a message for the user. Each parser sets `func(args) -> int` (an exit code),
 as the other subcommands do.
 
-    assetgen train --algo ppo|sac|random [--stack 10] --dataset D [--preset cpu]
+    assetgen train --algo ppo|sac|dreamer|random [--stack 10] --dataset D [--preset cpu]
                    [--steps N | --minutes M] [--seed S] --out RUN_DIR [--resume]
                    [--envs N] [--device cpu|cuda] [--threads T] [--no-progress]
     assetgen report RUN_DIR... [--baselines FILE_OR_DIR...] --out DIR
@@ -49,7 +49,7 @@ def add_train_parser(
 
     p = subparsers.add_parser(
         "train",
-        help="train an agent (PPO, SAC, random) on a dataset's modules",
+        help="train an agent (PPO, SAC, DreamerV3, random) on a dataset's modules",
         description="Train an agent on the vector env; progress bar, metrics.csv, TensorBoard "
         "and checkpoints in --out. --resume continues a run exactly (see rl/runner.py).",
     )
@@ -154,7 +154,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
 
     from rl.checkpoint import CheckpointError
     from rl.evaluate import evaluate
-    from rl.runner import load_agent
+    from rl.runner import load_agent, reset_hook
     from rl.stack import StackObs
 
     try:
@@ -172,6 +172,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             env,
             args.episodes,
             seed=args.seed,
+            reset=reset_hook(agent),
         )
     except (ValueError, CheckpointError) as e:
         return _error(str(e))

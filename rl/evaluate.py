@@ -28,12 +28,16 @@ def evaluate(
     seed: int | None = None,
     max_steps: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    reset: Callable[[np.ndarray], None] | None = None,
 ) -> dict[str, Any]:
     """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
 
     `seed` is passed to env.reset. `max_steps` (vector steps) guards against envs whose
     episodes never end: RuntimeError when exceeded. `progress(done, total)` is called as
-    episodes finish. Returns a JSON-ready dict:
+    episodes finish. `reset(mask)` (a recurrent policy's, e.g. Dreamer.reset) is called with
+    an all-True mask after env.reset and with terminated | truncated after every step, so
+    the policy's state is carried through each episode and restarted at its end. Returns a
+    JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
         successes                  count
@@ -58,6 +62,8 @@ def evaluate(
     truncations = 0
     steps = 0
     obs = env.reset(seed)
+    if reset is not None:
+        reset(np.ones(n, dtype=bool))
     while (counts < episodes_per_env).any():
         if max_steps is not None and steps >= max_steps:
             raise RuntimeError(
@@ -67,6 +73,8 @@ def evaluate(
             )
         obs, _, terminated, truncated, info = env.step(policy_fn(obs))
         steps += 1
+        if reset is not None:
+            reset(np.asarray(terminated) | np.asarray(truncated))
         for i in np.flatnonzero((terminated | truncated) & (counts < episodes_per_env)):
             ok = bool(info["success"][i])
             wins[i] += ok

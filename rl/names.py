@@ -3,5 +3,5 @@ parsers from them at every start, and importing torch there costs ~1.4 s on each
 command (sample, check, info included). rl.runner.ALGOS and rl.presets.PRESETS hold what
 the names stand for; tests/test_cli.py holds the two in step."""
 
-ALGO_NAMES = ("ppo", "random", "sac")
+ALGO_NAMES = ("dreamer", "ppo", "random", "sac")
 PRESET_NAMES = ("cpu", "debug", "paper")

@@ -124,7 +124,7 @@ def variant_name(algo: str, stack: int) -> str:
     """
     if algo in ("random", "scripted"):
         base = algo
-    elif algo.lower() == "dreamerv3":
+    elif algo.lower() in ("dreamer", "dreamerv3"):
         base = "DreamerV3"
     else:
         base = algo.upper()

@@ -18,7 +18,9 @@ uninterrupted one, on the same device and thread count) needs one of:
     one a crash or kill leaves) is then exact; resuming from one written when a run
     stopped on --steps/--minutes elsewhere is correct but not bit-identical.
 Counters, RNG states (torch CPU and CUDA, numpy's global, Python's), optimiser states, the
-SAC replay buffer and the episode-statistics window are all saved.
+SAC replay buffer, Dreamer's sequence replay (up to its checkpoint_replay_mb) and per-env
+recurrent state, and the episode-statistics window are all saved. A recurrent agent's
+`reset(mask)` is called after every env.reset (see Agent).
 A NaN/inf loss or action stops training with a message; the last good checkpoint is kept
 (a checkpoint is never written from non-finite weights).
 """
@@ -31,6 +33,7 @@ import math
 import random
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any, Protocol
@@ -40,6 +43,8 @@ import torch
 from rich.console import Console
 
 from rl import checkpoint as ckpt
+from rl.dreamer.agent import Dreamer
+from rl.dreamer.config import DreamerConfig
 from rl.nets import NonFiniteLossError
 from rl.ppo import PPO, PPOConfig
 from rl.presets import AlgoConfig, Setup, get_setup
@@ -48,7 +53,12 @@ from rl.sac import SAC, SACConfig
 from rl.stack import StackObs
 from rl.vec_env import VecEnv
 
-ALGOS: dict[str, type] = {"ppo": PPOConfig, "sac": SACConfig, "random": RandomConfig}
+ALGOS: dict[str, type] = {
+    "ppo": PPOConfig,
+    "sac": SACConfig,
+    "dreamer": DreamerConfig,
+    "random": RandomConfig,
+}
 """Algorithm name -> its config class."""
 CHECKPOINT = "checkpoint.safetensors"
 BASE_COLUMNS = (
@@ -67,7 +77,12 @@ console = Console(stderr=True, highlight=False)
 
 
 class Agent(Protocol):
-    """What the runner needs of an algorithm (PPO, SAC, RandomAgent)."""
+    """What the runner needs of an algorithm (PPO, SAC, Dreamer, RandomAgent).
+
+    A recurrent agent (Dreamer) also has `reset(mask (N,) bool)`: new episodes start where
+    mask is True. The runner calls it after every env.reset, rl/evaluate.py after each
+    step; stateless agents need not define it (see `reset_hook`).
+    """
 
     steps_per_iteration: int
     log_keys: tuple[str, ...]
@@ -99,14 +114,22 @@ def build_agent(
     device: str | torch.device,
     seed: int = 0,
 ) -> Agent:
-    """A fresh agent of `algo` ("ppo", "sac", "random")."""
+    """A fresh agent of `algo` ("ppo", "sac", "dreamer", "random")."""
     if algo == "ppo":
         return PPO(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
     if algo == "sac":
         return SAC(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
+    if algo == "dreamer":
+        return Dreamer(obs_dim, act_dim, num_envs, config, device, seed)  # type: ignore[arg-type]
     if algo == "random":
         return RandomAgent(act_dim, seed, config)  # type: ignore[arg-type]
     raise ValueError(f"unknown algorithm {algo!r}; valid algorithms: {sorted(ALGOS)}")
+
+
+def reset_hook(agent: Any) -> Callable[[np.ndarray], None] | None:
+    """The agent's `reset(mask)` when it keeps a recurrent state, else None."""
+    fn = getattr(agent, "reset", None)
+    return fn if callable(fn) else None
 
 
 def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
@@ -359,7 +382,7 @@ def train(
     tensorboard: bool = True,
     env_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Train `algo` ("ppo", "sac", "random") on `env` (the rl/vec_env.py contract).
+    """Train `algo` ("ppo", "sac", "dreamer", "random") on `env` (the rl/vec_env.py contract).
 
     preset: a name from rl/presets.py or a Setup. steps: total env steps (summed over envs,
     counted from the run's start, rounded up to whole iterations); minutes: wall-clock
@@ -411,6 +434,7 @@ def train(
             obs = np.asarray(ckpt.unpack(doc["env"]["obs"], tensors))
         else:
             obs = env.reset(seed=env_seed(seed, iteration))
+            _episodes_restart(agent, n)
         console.print(f"resumed {path} at iteration {iteration}, {env_steps:,} env steps")
     else:
         if path.exists():
@@ -419,6 +443,7 @@ def train(
                 "or choose another --out folder"
             )
         obs = env.reset(seed=env_seed(seed, 0))
+        _episodes_restart(agent, n)
     (out_dir / "config.json").write_text(json.dumps(meta | {"device": str(device)}, indent=2))
 
     spi = agent.steps_per_iteration
@@ -472,6 +497,7 @@ def train(
                 last_saved = iteration
                 if not stateful:  # the re-seed a resumed run repeats (see module doc)
                     obs = env.reset(seed=env_seed(seed, iteration))
+                    _episodes_restart(agent, n)
         if last_saved != iteration:
             _save(path, meta, agent, iteration, env_steps, wall, stats, env, obs)
     except NonFiniteLossError as e:
@@ -500,6 +526,13 @@ def train(
         "checkpoint": str(path) if path.exists() else None,
         "metrics": row,
     }
+
+
+def _episodes_restart(agent: Agent, n: int) -> None:
+    """Tell a recurrent agent that every env just started a new episode (env.reset)."""
+    hook = reset_hook(agent)
+    if hook is not None:
+        hook(np.ones(n, dtype=bool))
 
 
 def _save(

@@ -1,0 +1,121 @@
+"""DreamerV3 hyperparameters: a frozen dataclass, importable without torch (rl/presets.py
+builds presets from it at every CLI start). Defaults: the official implementation's
+defaults at the "small" model size (units 512, 2 layers, deter 512), which matches Table II
+of the paper ([512, 512] MLPs, world model lr 1e-4, actor-critic lr 3e-5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DreamerConfig:
+    """DreamerV3 hyperparameters (defaults: the official implementation, size "small")."""
+
+    units: int = 512
+    """Width of every MLP layer: encoder, decoder, reward and continue heads, actor, critic,
+    and the RSSM's input and output layers."""
+    layers: int = 2
+    """Hidden layers of every MLP (each Linear -> LayerNorm -> SiLU)."""
+    deter: int = 512
+    """Size of the deterministic recurrent state h (a LayerNorm GRU)."""
+    stoch: int = 32
+    """Number of categorical latent variables in the stochastic state z."""
+    classes: int = 32
+    """Classes of each latent variable (z is `stoch` one-hot vectors of `classes`)."""
+    unimix: float = 0.01
+    """Mixture weight of the uniform distribution in every categorical (latents):
+    p = (1 - unimix) softmax(logits) + unimix / classes; keeps KL terms and log-probs finite."""
+    bins: int = 255
+    """Bins of the two-hot distributions of the reward head and the critic."""
+    bin_range: float = 20.0
+    """The bins are evenly spaced over [-bin_range, bin_range] in symlog space."""
+    free_nats: float = 1.0
+    """Free bits: each KL term (dynamics, representation) is clipped below this many nats."""
+    dyn_scale: float = 0.5
+    """Weight of the dynamics loss KL(sg(posterior) || prior) (trains the prior)."""
+    rep_scale: float = 0.1
+    """Weight of the representation loss KL(posterior || sg(prior)) (trains the encoder)."""
+    pred_scale: float = 1.0
+    """Weight of the prediction losses (observation, reward, continue)."""
+    model_lr: float = 1e-4
+    """Adam learning rate of the world model."""
+    model_eps: float = 1e-8
+    """Adam epsilon of the world model."""
+    model_clip: float = 1000.0
+    """Gradient-norm clip of the world model."""
+    actor_lr: float = 3e-5
+    """Adam learning rate of the actor."""
+    critic_lr: float = 3e-5
+    """Adam learning rate of the critic."""
+    ac_eps: float = 1e-5
+    """Adam epsilon of the actor and the critic."""
+    ac_clip: float = 100.0
+    """Gradient-norm clip of the actor and of the critic."""
+    horizon: int = 15
+    """Imagination horizon H (steps imagined from every replayed posterior state)."""
+    gamma: float = 1.0 - 1.0 / 333.0
+    """Discount factor (the official code's `horizon: 333`, gamma = 1 - 1/333 ~ 0.997)."""
+    lam: float = 0.95
+    """lambda of the lambda-returns."""
+    actor_grad: str = "backprop"
+    """Actor gradient for continuous actions: "backprop" (through the learned dynamics, the
+    v3 release that accompanies the 2023 paper: `actor_grad_cont: backprop`) or "reinforce"
+    (the normalised-advantage policy gradient, which the 2024 revision of the official code
+    uses for discrete and continuous actions alike)."""
+    entropy_coef: float = 3e-4
+    """Weight eta of the actor's entropy bonus."""
+    min_std: float = 0.1
+    """Smallest standard deviation of the bounded normal policy."""
+    max_std: float = 1.0
+    """Largest standard deviation of the bounded normal policy."""
+    slow_critic_decay: float = 0.98
+    """EMA decay of the slow target critic (the official `slow_critic_fraction: 0.02`)."""
+    slowreg: float = 1.0
+    """Weight of the critic's regulariser towards the slow critic's predictions."""
+    return_decay: float = 0.99
+    """EMA decay of the return normaliser's 5th and 95th percentiles."""
+    return_low: float = 5.0
+    """Lower percentile of the return normaliser."""
+    return_high: float = 95.0
+    """Upper percentile of the return normaliser (scale S = max(1, P_high - P_low))."""
+    batch_size: int = 16
+    """Sequences per gradient step."""
+    batch_length: int = 64
+    """Steps per replayed sequence."""
+    train_ratio: float = 512.0
+    """Replayed steps per env step (official): gradient steps per env step =
+    train_ratio / (batch_size * batch_length), fractions accumulating."""
+    replay_capacity: int = 20_000_000
+    """Replay capacity in steps, summed over envs (each env keeps capacity / num_envs)."""
+    checkpoint_replay_mb: float = 1024.0
+    """The replay is saved in checkpoints (so --resume continues exactly) while its filled
+    part takes at most this many MiB; a larger one is left out (writing and hashing
+    gigabytes at every checkpoint), and a run resumed from such a checkpoint refills its
+    replay from fresh experience: the world model, the policy and the counters carry on,
+    the resume is not exact. The paper preset's full replay takes ~1.9 GiB, so it is saved
+    until about half full; the cpu preset's (~100 MiB) always."""
+    warmup_steps: int = 500_000
+    """Env steps (summed over envs) taken with uniform random actions before training."""
+    steps_per_iteration: int = 64
+    """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
+
+    def validate(self) -> DreamerConfig:
+        checks = {
+            "units >= 1 and layers >= 1": self.units >= 1 and self.layers >= 1,
+            "deter, stoch, classes >= 1": min(self.deter, self.stoch, self.classes) >= 1,
+            "0 <= unimix < 1": 0 <= self.unimix < 1,
+            "bins >= 2": self.bins >= 2,
+            "horizon >= 1": self.horizon >= 1,
+            "0 < gamma <= 1": 0 < self.gamma <= 1,
+            "0 <= lam <= 1": 0 <= self.lam <= 1,
+            "actor_grad in (backprop, reinforce)": self.actor_grad in ("backprop", "reinforce"),
+            "0 < min_std <= max_std": 0 < self.min_std <= self.max_std,
+            "batch_size, batch_length >= 1": min(self.batch_size, self.batch_length) >= 1,
+            "train_ratio >= 0": self.train_ratio >= 0,
+            "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
+        }
+        bad = [k for k, ok in checks.items() if not ok]
+        if bad:
+            raise ValueError(f"DreamerConfig: these must hold: {bad}")
+        return self
