@@ -50,7 +50,7 @@ class TaskConfig:
     MuJoCo has one Coulomb coefficient: it gets the dynamic one (see scene.py)."""
     restitution_range: tuple[float, float] = (0.0, 1.0)
     """Restitution drawn uniformly here at reset, mapped onto the contact damping ratio
-    (scene.restitution_to_dampratio: 0 -> 1.0, 1 -> physics.min_dampratio)."""
+    (scene.restitution_to_dampratio: 0 -> physics.dampratio, 1 -> physics.min_dampratio)."""
     dist_pos_weight: float = 0.8
     """Weight of ||t|| (m) in the distance d = w_t ||t|| + w_r ||R - I||_F to the seat."""
     dist_rot_weight: float = 0.2
@@ -71,18 +71,9 @@ class TaskConfig:
         return self.physics.timestep * self.physics.substeps
 
     def validate(self) -> TaskConfig:
-        p = self.physics
+        self.physics.validate()
         checks = {
             "max_steps >= 1": self.max_steps >= 1,
-            "substeps >= 1": p.substeps >= 1,
-            "timestep > 0": p.timestep > 0,
-            "runaway_speed > 0": p.runaway_speed > 0,
-            "contact_timeconst >= timestep": p.contact_timeconst >= p.timestep - 1e-12,
-            "contact_timeconst >= 2 timestep unless integrator is discrete": (
-                p.integrator == "discrete" or p.contact_timeconst >= 2 * p.timestep - 1e-12
-            ),
-            "integrator in (discrete, implicitfast, implicit, Euler)": p.integrator
-            in ("discrete", "implicitfast", "implicit", "Euler"),
             "curriculum_steps >= 0": self.curriculum_steps >= 0,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],
             "success_radius > 0": self.success_radius > 0,

@@ -237,7 +237,7 @@ class PegInHoleVecEnv:
         lo, hi = np.array([cfg.friction_range, cfg.friction_range, cfg.restitution_range]).T
         _static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
         self.sim.set_contact(
-            idx, dynamic, restitution_to_dampratio(restitution, cfg.physics.min_dampratio)
+            idx, dynamic, restitution_to_dampratio(restitution, cfg.physics)
         )
         self._start_episodes(idx, pos, quat)
 

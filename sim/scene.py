@@ -40,8 +40,9 @@ REF_SITE = "ref_site"
 _AXES = np.eye(6)
 
 
-def restitution_to_dampratio(e: np.ndarray | float, min_dampratio: float) -> np.ndarray:
-    """Coefficient of restitution in [0, 1] -> contact damping ratio in [min_dampratio, 1].
+def restitution_to_dampratio(e: np.ndarray | float, physics: PhysicsConfig) -> np.ndarray:
+    """Coefficient of restitution in [0, 1] -> contact damping ratio in
+    [physics.min_dampratio, physics.dampratio].
 
     A linear damped spring returns e = exp(-zeta pi / sqrt(1 - zeta^2)), i.e. zeta =
     -ln e / sqrt(pi^2 + ln^2 e); restitution 0.05 already needs zeta = 0.69. Measured at
@@ -49,29 +50,12 @@ def restitution_to_dampratio(e: np.ndarray | float, min_dampratio: float) -> np.
     a chatter limit cycle (the peg bounces 0.5 mm forever), and the free-peg rebound is
     0.1-0.4 whatever zeta (numerical: the penetration found at detection is pushed out
     within a step). So the draw randomises the contact's damping over the range that stays
-    settled, linearly: e = 0 -> 1 (critical), e = 1 -> min_dampratio. Not a restitution
+    settled, linearly: e = 0 -> dampratio (1, critical), e = 1 -> min_dampratio. Not a restitution
     coefficient: MuJoCo has none, and PhysX (the original) ignores restitution below its
     bounce-threshold velocity (0.2 m/s by default), about this task's top speed.
     """
     e = np.clip(np.asarray(e, dtype=float), 0.0, 1.0)
-    return 1.0 - e * (1.0 - min_dampratio)
-
-
-def rotational_kv(asset: ModuleAsset, physics: PhysicsConfig) -> float:
-    """Angular gain: the largest principal inertia about the bottom-face centre / tau."""
-    c = asset.peg_com
-    # parallel-axis theorem: I_site = I_com + m (|c|^2 I - c c^T)
-    i_site = asset.peg_inertia + asset.peg_mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
-    return float(np.linalg.eigvalsh(i_site).max() / physics.tracking_time_constant)
-
-
-def _set_options(spec: mujoco.MjSpec, physics: PhysicsConfig) -> None:
-    """The shared option block (assetgen.core.mujoco_config.apply_to_spec; the exported MJCF
-    carries the same).
-    `discrete` (default): the constraint solve uses the same effective inertia M + h D as
-    the implicit velocity controller. Under `implicitfast` the controller's implicit
-    damping (h kv ~ M) diluted every contact impulse: a full-speed impact sank 1.9 mm."""
-    apply_to_spec(spec, physics)
+    return physics.dampratio - e * (physics.dampratio - physics.min_dampratio)
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -186,7 +170,7 @@ def build_model(
     """
     spec = mujoco.MjSpec()
     spec.modelname = "peg_in_hole"
-    _set_options(spec, physics)
+    apply_to_spec(spec, physics)  # the option block the exported MJCF carries too
     for k, asset in enumerate(assets):
         prefix = f"e{k}_" if len(assets) > 1 else ""
         add_environment(

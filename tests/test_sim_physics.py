@@ -203,7 +203,7 @@ def test_full_speed_into_a_hole_wall_never_passes_through(module: int) -> None:
 
 
 def test_restitution_maps_onto_damping_ratio() -> None:
-    z = restitution_to_dampratio(np.array([0.0, 0.5, 1.0]), 0.85)
+    z = restitution_to_dampratio(np.array([0.0, 0.5, 1.0]), PhysicsConfig())
     assert z.tolist() == pytest.approx([1.0, 0.925, 0.85])
 
 
