@@ -197,33 +197,34 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _eval_hooks():
+    import numpy as np
+
+    from rl.commands import EvalHooks
+    from sim import make_eval_env
+    from sim.expert import expert_action
+    from sim.recording import EpisodeRecorder, env_labels
+
+    def random_agent(seed: int):
+        rng = np.random.default_rng(seed)
+        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 6))
+
+    return EvalHooks(
+        make_env=make_eval_env,
+        agents={"scripted": lambda seed: expert_action, "random": random_agent},
+        labels=env_labels,
+        recorder=EpisodeRecorder,
+        policies={"scripted": "deterministic", "random": "stochastic"},
+    )
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
-    from assetgen.dataset.spec import DatasetError
-    from sim.assets import AssetError
-    from sim.evaluate import eval_main
+    from rl.commands import eval_main
 
-    if args.checkpoint:
-        from rl.commands import eval_main as rl_eval_main
-        from sim import make_eval_env
-
-        run_args = argparse.Namespace(
-            run=args.checkpoint,
-            dataset=args.dataset,
-            episodes=args.attempts,
-            envs=args.envs,
-            seed=args.seed,
-            device=None,
-            stochastic=args.stochastic,
-            json=args.json,
-            out=args.out,
-        )
-        return rl_eval_main(run_args, make_eval_env)
-    if args.agent is None:
-        return _err("give --agent scripted|random or --checkpoint RUN_DIR")
-    try:
-        return eval_main(args)
-    except (DatasetError, AssetError, ValueError) as e:
-        return _err(str(e))
+    if (args.agent is None) == (args.checkpoint is None):
+        return _err("give one of --agent scripted|random and --checkpoint RUN_DIR")
+    args.run, args.episodes = args.checkpoint, args.attempts
+    return eval_main(args, _eval_hooks())
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -330,7 +331,15 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--dataset", default="test", help="spec name or dataset folder")
     e.add_argument("--attempts", type=int, default=10, help="episodes per module")
     e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--envs", type=int, default=1024, help="parallel environments at most")
+    e.add_argument(
+        "--envs", type=int, default=None, help="parallel envs at most (default: one per module)"
+    )
+    e.add_argument(
+        "--noise-scale",
+        type=float,
+        default=1.0,
+        help="multiply the observation and action noise (robustness: 2 = twice the paper's)",
+    )
     e.add_argument("--record", type=Path, help="folder for recorded episodes (.npz)")
     e.add_argument("--record-limit", type=int, default=None, help="episodes to record")
     e.add_argument("--out", type=Path, help="write the results JSON here")
@@ -348,9 +357,19 @@ def build_parser() -> argparse.ArgumentParser:
     from rl.commands import add_report_parser, add_train_parser
     from sim import make_train_env
 
-    add_train_parser(sub, make_train_env)
+    add_train_parser(sub, make_train_env, TEACHERS)
     add_report_parser(sub)
     return p
+
+
+def _scripted_teacher():
+    from sim.expert import expert_action
+
+    return expert_action
+
+
+TEACHERS = {"scripted": _scripted_teacher}
+"""`assetgen train --demos NAME`: the teachers an agent can learn from."""
 
 
 EXTRAS: dict[str, tuple[str, ...]] = {

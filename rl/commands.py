@@ -1,18 +1,20 @@
 """The learning commands of `assetgen`; cli.py registers them and calls them:
 
-    add_train_parser(subparsers, make_env)   assetgen train ...
-    eval_main(args, make_eval_env)           assetgen eval --checkpoint RUN ...
+    add_train_parser(subparsers, make_env, teachers)   assetgen train ...
+    eval_main(args, EvalHooks(...))          assetgen eval --agent NAME | --checkpoint RUN ...
     add_report_parser(subparsers)            assetgen report ...
 
 `make_env(dataset: str, num_envs: int, seed: int, **task) -> VecEnv` (rl/vec_env.py; train passes
 `curriculum_steps=N`, the length of the env's spawn curriculum, as a keyword) is supplied by
-the caller, so rl/ never imports the simulator; for a dataset it cannot use it raises
+the caller, so rl/ never imports the simulator (nor its scripted expert: `teachers` maps
+`--demos` names to policies); for a dataset it cannot use it raises
 ValueError with a message for the user. Each parser sets `func(args) -> int` (an exit code),
 as the other subcommands do.
 
     assetgen train --algo ppo|sac|dreamer|random [--stack 10] --dataset D [--preset cpu]
                    [--steps N | --minutes M] [--seed S] --out RUN_DIR [--resume]
                    [--envs N] [--device cpu|cuda] [--threads T] [--no-progress]
+                   [--demos scripted] [--set FIELD=VALUE ...]
     assetgen report RUN_DIR... [--baselines FILE_OR_DIR...] --out DIR
 
 `report` (add_report_parser) needs no env: it reads run folders and evaluation JSONs.
@@ -23,12 +25,58 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from rl.vec_env import VecEnv
 
 MakeEnv = Callable[..., VecEnv]
 """make_env(dataset, num_envs, seed, **task) -> a VecEnv; ValueError for a bad dataset."""
+Teacher = Callable[[np.ndarray], np.ndarray]
+"""A policy of unstacked observations (N, obs_dim) -> actions (N, act_dim) in [-1, 1]."""
+
+
+def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
+    """`--set FIELD=VALUE` items -> {field: value} for `algo`'s config, each value parsed as
+    the field's default is typed (ValueError naming the field and the valid ones)."""
+    from dataclasses import fields
+
+    from rl.runner import ALGOS
+
+    cls = ALGOS[algo]
+    known = {f.name: f for f in fields(cls)}
+    out: dict[str, Any] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or name not in known:
+            raise ValueError(
+                f"--set {item!r}: give FIELD=VALUE with FIELD one of {cls.__name__}'s "
+                f"fields: {sorted(known)}"
+            )
+        default = known[name].default
+        try:
+            if isinstance(default, bool):
+                if text.lower() not in ("true", "false", "1", "0"):
+                    raise ValueError
+                value: Any = text.lower() in ("true", "1")
+            elif isinstance(default, tuple):
+                value = tuple(type(default[0])(x) for x in text.split(","))
+            elif default is None:
+                value = None if text.lower() == "none" else float(text)
+            else:
+                value = type(default)(float(text) if isinstance(default, int) else text)
+                if isinstance(default, int) and value != float(text):
+                    raise ValueError
+        except ValueError:
+            kind = {"int": "an integer", "float": "a number", "bool": "true or false"}.get(
+                type(default).__name__, f"a {type(default).__name__}"
+            )
+            raise ValueError(f"--set {item!r}: {name} takes {kind}") from None
+        out[name] = value
+    return out
 
 
 def _error(message: str) -> int:
@@ -42,9 +90,12 @@ def _error(message: str) -> int:
 
 
 def add_train_parser(
-    subparsers: argparse._SubParsersAction, make_env: MakeEnv
+    subparsers: argparse._SubParsersAction,
+    make_env: MakeEnv,
+    teachers: dict[str, Callable[[], Teacher]] | None = None,
 ) -> argparse.ArgumentParser:
-    """Register `train` on an argparse subparsers object."""
+    """Register `train` on an argparse subparsers object; `teachers` maps the names that
+    --demos accepts to functions that build the policy."""
     from rl.names import ALGO_NAMES, PRESET_NAMES
 
     p = subparsers.add_parser(
@@ -87,13 +138,29 @@ def add_train_parser(
         "threads need the rest, and oversubscribed torch threads spin; a SAC gradient step "
         "on the 2-core machine under load took 87 ms with 1 thread, 406 ms with 2)",
     )
+    p.add_argument(
+        "--demos",
+        help="learn from a teacher (sac): it plays the warm-up and its actions label every "
+        "stored observation for a decaying behaviour-cloning term; one of "
+        f"{sorted(teachers or {})}",
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="replace a field of the preset's config (repeatable; e.g. --set bc_weight=0 for "
+        "an ablation); the fields are the algorithm's config dataclass (rl/)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
-    p.set_defaults(func=lambda args: train_main(args, make_env))
+    p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}))
     return p
 
 
-def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
+def train_main(
+    args: argparse.Namespace, make_env: MakeEnv, teachers: dict[str, Callable[[], Teacher]]
+) -> int:
     """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
     import os
 
@@ -117,6 +184,16 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
                     f"--curriculum-steps {args.curriculum_steps}: give 0 (off) or more steps"
                 )
             curriculum = args.curriculum_steps
+        teacher = None
+        demos = getattr(args, "demos", None)
+        if demos is not None:
+            if demos not in teachers:
+                raise ValueError(
+                    f"--demos {demos!r}: no such demonstration source; valid sources: "
+                    f"{sorted(teachers)}"
+                )
+            teacher = teachers[demos]()
+        overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
         env = make_env(
             args.dataset, args.envs or setup.num_envs, args.seed, curriculum_steps=curriculum
         )
@@ -133,6 +210,9 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
             device=args.device,
             progress=not args.no_progress,
             env_options={"curriculum_steps": curriculum},
+            teacher=teacher,
+            demos=demos,
+            overrides=overrides,
         )
     except (ValueError, CheckpointError) as e:
         return _error(str(e))
@@ -148,40 +228,109 @@ def train_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
     return {"done": 0, "nan": 1, "interrupted": 130}[result["status"]]
 
 
-def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
-    """Evaluate a run from parsed arguments; prints a short table or a JSON line."""
+@dataclass(frozen=True)
+class EvalHooks:
+    """What `assetgen eval` needs from the simulator, supplied by cli.py (rl/ never imports
+    it)."""
+
+    make_env: MakeEnv
+    """make_env(dataset, num_envs, seed, noise_scale=x) -> the evaluation VecEnv, with a
+    `protocol` dict (dataset folder and hash, control_dt, noise scale) when it has one."""
+    agents: dict[str, Callable[[int], Teacher]]
+    """Built-in agents: name -> (seed -> policy)."""
+    labels: Callable[[Any], list[str]] | None = None
+    """env -> what each env plays (its module id), for per-module results."""
+    recorder: Callable[[Path, int | None], Any] | None = None
+    """(folder, limit) -> a recorder of episodes (rl/evaluate.py's Recorder)."""
+    policies: dict[str, str] = field(default_factory=dict)
+    """Built-in agent -> "deterministic" or "stochastic" (what its actions are)."""
+
+
+def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
+    """`assetgen eval`: the paper's protocol for a built-in agent (args.agent) or a trained
+    checkpoint (args.run), through the one loop of rl/evaluate.py. Prints a short table or a
+    JSON line; args.out receives the JSON."""
     import numpy as np
 
-    from rl.checkpoint import CheckpointError
     from rl.evaluate import evaluate
-    from rl.runner import load_agent, reset_hook
-    from rl.stack import StackObs
 
+    run = getattr(args, "run", None)
+    stochastic = bool(getattr(args, "stochastic", False))
+    noise_scale = float(getattr(args, "noise_scale", 1.0) or 1.0)
+    record = getattr(args, "record", None)
     try:
-        agent, meta = load_agent(args.run, args.device)
-        env = make_env(args.dataset, args.envs or meta["num_envs"], args.seed)
-        if meta["stack"] > 1:
-            env = StackObs(env, meta["stack"])
-        if env.obs_dim != meta["obs_dim"]:
-            raise ValueError(
-                f"the env's observations have {env.obs_dim} values, the run's "
-                f"policy takes {meta['obs_dim']}"
-            )
+        if args.episodes < 1:
+            raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
+        reset = None
+        if run is not None:
+            import torch
+
+            from rl.checkpoint import CheckpointError
+            from rl.runner import load_agent, reset_hook
+            from rl.stack import StackObs
+
+            # the recurrent agents sample their latents: seeded, an evaluation repeats exactly
+            torch.manual_seed(args.seed)
+            try:
+                agent, meta = load_agent(run, getattr(args, "device", None))
+            except CheckpointError as e:
+                raise ValueError(str(e)) from e
+            env = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
+            base = env
+            if meta["stack"] > 1:
+                env = StackObs(env, meta["stack"])
+            if env.obs_dim != meta["obs_dim"]:
+                raise ValueError(
+                    f"{run}: the checkpoint's policy takes observations of {meta['obs_dim']} "
+                    f"values ({meta['stack']} stacked), but this env gives {env.obs_dim} "
+                    f"({base.obs_dim} per step, stacked {meta['stack']}): evaluate it on the "
+                    "task it was trained on"
+                )
+            policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
+            reset = reset_hook(agent)
+            head: dict[str, Any] = {
+                "algo": meta["algo"],
+                "stack": meta["stack"],
+                "demos": meta.get("demos"),
+                "overrides": meta.get("overrides", {}),
+                "run": str(run),
+                "policy": "stochastic" if stochastic else "deterministic",
+            }
+            name = f"{meta['algo']}{'-STACK' if meta['stack'] > 1 else ''} ({run})"
+        else:
+            if args.agent not in hooks.agents:
+                raise ValueError(
+                    f"--agent {args.agent!r}: built-in agents are {sorted(hooks.agents)}; "
+                    "or give --checkpoint RUN_DIR"
+                )
+            if stochastic:
+                raise ValueError("--stochastic applies to --checkpoint policies only")
+            env = base = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
+            policy = hooks.agents[args.agent](args.seed)
+            head = {"agent": args.agent, "policy": hooks.policies.get(args.agent, "deterministic")}
+            name = args.agent
+        recorder = None
+        if record is not None:
+            if hooks.recorder is None:
+                raise ValueError("--record: this env cannot record episodes")
+            recorder = hooks.recorder(Path(record), getattr(args, "record_limit", None))
         res = evaluate(
-            lambda o: agent.policy(o, deterministic=not args.stochastic),
+            policy,
             env,
             args.episodes,
             seed=args.seed,
-            reset=reset_hook(agent),
+            reset=reset,
+            labels=hooks.labels(base) if hooks.labels is not None else None,
+            recorder=recorder,
         )
-    except (ValueError, CheckpointError) as e:
+    except ValueError as e:
         return _error(str(e))
-    # algo, stack, run and dataset let `assetgen report` name the variant and the split
     res = {
-        "algo": meta["algo"],
-        "stack": meta["stack"],
-        "run": str(args.run),
+        **head,
         "dataset": str(args.dataset),
+        **getattr(base, "protocol", {}),
+        "attempts": args.episodes,
+        "seed": args.seed,
         **res,
     }
     out = getattr(args, "out", None)  # absent when a caller builds args without --out
@@ -194,13 +343,17 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv) -> int:
         return 0
     tts = np.asarray(res["time_to_success_s"])
     q = np.percentile(tts, [10, 50, 90]) if len(tts) else [float("nan")] * 3
+    where = f"{res.get('dataset_folder', res['dataset'])} ({res.get('dataset_hash', '?')[:16]})"
     rows = [
-        ("agent", f"{meta['algo']}{'-STACK' if meta['stack'] > 1 else ''} ({args.run})"),
+        ("agent", f"{name}, {res['policy']} actions"),
+        ("dataset", where),
         ("episodes", res["episodes"]),
         ("success rate", f"{100 * res['success_rate']:.2f} %"),
         ("time to success p10/p50/p90", f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"),
-        ("mean return", f"{res['mean_return']:.3f}"),
+        ("failure rate", f"{100 * res['failure_rate']:.2f} %"),
         ("truncated", f"{100 * res['truncation_rate']:.2f} %"),
+        ("unstable episodes", res["unstable"]),
+        ("mean return", f"{res['mean_return']:.3f}"),
         ("wall time", f"{res['seconds']:.1f} s"),
     ]
     width = max(len(k) for k, _ in rows)

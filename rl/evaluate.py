@@ -4,13 +4,16 @@ per module"); success rate and time to success.
 
 Episodes are counted per env, so envs with short episodes do not weigh more: an env that has
 finished its quota keeps stepping (its further episodes are ignored) until all have.
+
+This one loop serves every agent: the scripted expert, the random agent and trained
+checkpoints (`assetgen eval` builds the env and the policy, then calls `evaluate`).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -18,6 +21,26 @@ from rl.vec_env import VecEnv
 
 Policy = Callable[[np.ndarray], np.ndarray]
 """obs (N, obs_dim) float32 -> actions (N, act_dim) in [-1, 1]."""
+
+
+class Recorder(Protocol):
+    """Keeps episodes as they are played (sim/recording.py writes them for the preview)."""
+
+    def begin(self, env: Any) -> None:
+        """Called after env.reset: every env starts an episode."""
+
+    def step(
+        self,
+        env: Any,
+        reward: np.ndarray,
+        done: np.ndarray,
+        info: dict[str, Any],
+        live: np.ndarray,
+        attempts: np.ndarray,
+    ) -> None:
+        """Called after every env.step: `done` (N,) ended episodes (their envs have already
+        started the next), `live` (N,) envs whose episodes still count, `attempts` (N,)
+        episodes each env had finished before this step."""
 
 
 def evaluate(
@@ -29,6 +52,8 @@ def evaluate(
     max_steps: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     reset: Callable[[np.ndarray], None] | None = None,
+    labels: list[str] | None = None,
+    recorder: Recorder | None = None,
 ) -> dict[str, Any]:
     """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
 
@@ -36,8 +61,9 @@ def evaluate(
     episodes never end: RuntimeError when exceeded. `progress(done, total)` is called as
     episodes finish. `reset(mask)` (a recurrent policy's, e.g. Dreamer.reset) is called with
     an all-True mask after env.reset and with terminated | truncated after every step, so
-    the policy's state is carried through each episode and restarted at its end. Returns a
-    JSON-ready dict:
+    the policy's state is carried through each episode and restarted at its end. `labels`
+    (N,) names what each env plays (its module) for `per_module`; `recorder` sees every step
+    (`--record`). Returns a JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
         successes                  count
@@ -46,7 +72,10 @@ def evaluate(
         mean_return, std_return    over episodes
         mean_length                steps per episode
         truncation_rate            fraction of episodes ended by truncation
+        failure_rate, unstable     episodes ended by the task's failure condition (fraction),
+                                   by unstable physics (count); when info reports them
         per_env_success_rate       list (N,): success rate of each env
+        per_module                 {label: success rate}, with `labels`
         env_steps, seconds         work done
     """
     if episodes_per_env < 1:
@@ -59,11 +88,13 @@ def evaluate(
     returns: list[float] = []
     lengths: list[int] = []
     tts: list[float] = []
-    truncations = 0
+    truncations = failures = unstable = 0
     steps = 0
     obs = env.reset(seed)
     if reset is not None:
         reset(np.ones(n, dtype=bool))
+    if recorder is not None:
+        recorder.begin(env)
     while (counts < episodes_per_env).any():
         if max_steps is not None and steps >= max_steps:
             raise RuntimeError(
@@ -71,11 +102,15 @@ def evaluate(
                 f"{int((counts < episodes_per_env).sum())} envs short of {episodes_per_env} "
                 "episodes: do the env's episodes end (truncation)?"
             )
-        obs, _, terminated, truncated, info = env.step(policy_fn(obs))
+        obs, reward, terminated, truncated, info = env.step(policy_fn(obs))
         steps += 1
+        done = np.asarray(terminated) | np.asarray(truncated)
+        live = counts < episodes_per_env
         if reset is not None:
-            reset(np.asarray(terminated) | np.asarray(truncated))
-        for i in np.flatnonzero((terminated | truncated) & (counts < episodes_per_env)):
+            reset(done)
+        if recorder is not None:
+            recorder.step(env, np.asarray(reward), done, info, live, counts.copy())
+        for i in np.flatnonzero(done & live):
             ok = bool(info["success"][i])
             wins[i] += ok
             returns.append(float(info["episode_return"][i]))
@@ -83,6 +118,8 @@ def evaluate(
             if ok:
                 tts.append(float(info["time_to_success"][i]))
             truncations += bool(truncated[i]) and not bool(terminated[i])
+            failures += bool(info["failure"][i]) if "failure" in info else 0
+            unstable += bool(info["unstable"][i]) if "unstable" in info else 0
             counts[i] += 1
             if progress is not None:
                 progress(len(returns), total)
@@ -96,7 +133,22 @@ def evaluate(
         "std_return": float(np.std(returns)),
         "mean_length": float(np.mean(lengths)),
         "truncation_rate": truncations / total,
+        "failure_rate": failures / total,
+        "unstable": unstable,
         "per_env_success_rate": (wins / episodes_per_env).tolist(),
+        **({"per_module": _per_module(labels, wins, episodes_per_env)} if labels else {}),
         "env_steps": steps * n,
         "seconds": time.perf_counter() - t0,
     }
+
+
+def _per_module(labels: list[str], wins: np.ndarray, episodes_per_env: int) -> dict[str, float]:
+    """{label: success rate}, pooling the envs that share a label."""
+    if len(labels) != len(wins):
+        raise ValueError(f"{len(labels)} labels for {len(wins)} envs: give one per env")
+    won: dict[str, int] = {}
+    played: dict[str, int] = {}
+    for label, w in zip(labels, wins.tolist(), strict=True):
+        won[label] = won.get(label, 0) + w
+        played[label] = played.get(label, 0) + episodes_per_env
+    return {k: won[k] / played[k] for k in sorted(won)}

@@ -11,6 +11,10 @@ Inputs (nothing here trains or simulates; torch is not needed):
 An evaluation file needs: success_rate (fraction), episodes (count), time_to_success_s (list
 of seconds, one per success), dataset (the split's name or folder: its last path component,
 "train" or "test", names the column), and either algo + stack (a trained run) or agent.
+Its policy ("deterministic", the paper's protocol and the default of older files, or
+"stochastic") keeps the protocols apart: a trained policy's sampled actions make their own
+row, "PPO (sampled)". A run trained with demonstrations or config overrides is its own
+variant too ("SAC+scripted", "SAC+scripted [bc_weight=0]"), so ablations never pool.
 
 Runs are grouped into variants (`variant_name`: SAC + stack 10 -> "SAC-STACK"); the seeds of a
 variant give mean ± std (population std, ddof = 0) over runs. Outputs of `write_report`:
@@ -44,6 +48,8 @@ ROW_ORDER = ("random", "PPO", "PPO-STACK", "SAC", "SAC-STACK", "DreamerV3", "scr
 SPLITS = ("train", "test")
 """Table columns always shown; evaluations on other datasets add columns after these."""
 DASH = "–"
+SAMPLED = " (sampled)"
+"""Suffix of the row of a trained policy evaluated with sampled actions."""
 
 
 class ReportError(ValueError):
@@ -60,6 +66,7 @@ class EvalResult:
     path: Path
     variant: str
     split: str
+    policy: str
     episodes: int
     success_rate: float
     time_to_success_s: np.ndarray
@@ -116,12 +123,24 @@ class Cell:
         return float(np.median(t)) if len(t) else math.nan
 
 
-def variant_name(algo: str, stack: int) -> str:
+def variant_name(
+    algo: str, stack: int, demos: str | None = None, overrides: dict[str, Any] | None = None
+) -> str:
     """The paper's name for an agent: ("sac", 10) -> "SAC-STACK", ("ppo", 1) -> "PPO".
 
     A stack other than the paper's 10 keeps its size in the name ("SAC-STACK4") so runs
-    that differ are never averaged together.
+    that differ are never averaged together; so do demonstrations ("SAC+scripted") and
+    config overrides ("SAC+scripted [bc_weight=0.0]").
     """
+    name = _base_name(algo, stack)
+    if demos:
+        name += f"+{demos}"
+    if overrides:
+        name += " [" + ", ".join(f"{k}={v}" for k, v in sorted(overrides.items())) + "]"
+    return name
+
+
+def _base_name(algo: str, stack: int) -> str:
     if algo in ("random", "scripted"):
         base = algo
     elif algo.lower() in ("dreamer", "dreamerv3"):
@@ -154,8 +173,15 @@ def load_eval(path: str | Path) -> EvalResult:
     missing = [
         k for k in ("success_rate", "episodes", "time_to_success_s", "dataset") if k not in doc
     ]
+    policy = str(doc.get("policy", "deterministic"))
+    if policy not in ("deterministic", "stochastic"):
+        raise ReportError(f"{path}: policy {policy!r} is neither deterministic nor stochastic")
     if "algo" in doc:
-        variant = variant_name(doc["algo"], int(doc.get("stack", 1)))
+        variant = variant_name(
+            doc["algo"], int(doc.get("stack", 1)), doc.get("demos"), doc.get("overrides")
+        )
+        if policy == "stochastic":
+            variant += SAMPLED
     elif "agent" in doc:
         variant = variant_name(str(doc["agent"]), 1)
     else:
@@ -169,6 +195,7 @@ def load_eval(path: str | Path) -> EvalResult:
         path=path,
         variant=variant,
         split=Path(str(doc["dataset"])).name,  # "datasets/test" and "test" both name the split
+        policy=policy,
         episodes=int(doc["episodes"]),
         success_rate=float(doc["success_rate"]),
         time_to_success_s=np.asarray(doc["time_to_success_s"], dtype=float),
@@ -201,15 +228,19 @@ def load_run(path: str | Path) -> Run:
     meta = _read_json(config)
     if "algo" not in meta:
         raise ReportError(f"{config}: no 'algo' key; is this a run of `assetgen train`?")
-    variant = variant_name(meta["algo"], int(meta.get("stack", 1)))
+    variant = variant_name(
+        meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), meta.get("overrides")
+    )
     steps, rate = _read_metrics(metrics)
     evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
     for e in evals:
-        if e.variant != variant:
+        if e.variant.removesuffix(SAMPLED) != variant:
             raise ReportError(f"{e.path} evaluates {e.variant}, but the run {path} is {variant}")
-    splits = [e.split for e in evals]
-    if len(set(splits)) != len(splits):
-        raise ReportError(f"{path} has two evaluation files of one dataset: keep one per dataset")
+    kinds = [(e.split, e.policy) for e in evals]
+    if len(set(kinds)) != len(kinds):
+        raise ReportError(
+            f"{path} has two evaluation files of one dataset and policy: keep one of each"
+        )
     return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals)
 
 

@@ -34,7 +34,7 @@ import random
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -381,6 +381,9 @@ def train(
     progress: bool = True,
     tensorboard: bool = True,
     env_options: dict[str, Any] | None = None,
+    teacher: Callable[[np.ndarray], np.ndarray] | None = None,
+    demos: str | None = None,
+    overrides: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Train `algo` ("ppo", "sac", "dreamer", "random") on `env` (the rl/vec_env.py contract).
 
@@ -389,11 +392,15 @@ def train(
     limit of this call; neither: the preset's total_steps. stack > 1 wraps the env in
     StackObs(env, stack). resume continues the run saved in out_dir (same settings
     required). env_options: how `env` was made (e.g. its curriculum length), recorded with
-    the run and checked on resume. Returns {"status": "done" | "nan" | "interrupted", "iterations",
-    "env_steps", "seconds", "episodes", "checkpoint", "metrics" (the last row)}.
+    the run and checked on resume. teacher: a policy of the env's unstacked observations
+    (e.g. the scripted expert) that an agent with `set_teacher` (SAC) learns from, named
+    `demos` in the run's metadata. overrides: config fields replaced in the preset's config
+    (ablations: {"bc_weight": 0.0}). Returns {"status": "done" | "nan" | "interrupted",
+    "iterations", "env_steps", "seconds", "episodes", "checkpoint", "metrics" (the last row)}.
     """
     setup = get_setup(preset, algo) if isinstance(preset, str) else preset
-    config = setup.config
+    config = replace(setup.config, **(overrides or {}))
+    base_dim = env.obs_dim
     if stack > 1:
         env = StackObs(env, stack)
     elif stack < 1:
@@ -404,7 +411,11 @@ def train(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / CHECKPOINT
-    meta = run_meta(algo, config, env, stack, seed) | {"env_options": env_options or {}}
+    meta = run_meta(algo, config, env, stack, seed) | {
+        "env_options": env_options or {},
+        "demos": demos if teacher is not None else None,
+        "overrides": overrides or {},
+    }
     n = env.num_envs
 
     # seeding before the networks are built makes their initialisation reproducible
@@ -412,6 +423,11 @@ def train(
     np.random.seed(seed)  # noqa: NPY002 (for envs and user code that use the global one)
     random.seed(seed)
     agent = build_agent(algo, env.obs_dim, env.act_dim, n, config, device, seed)
+    if teacher is not None:
+        if not hasattr(agent, "set_teacher"):
+            raise ValueError(f"demonstrations (a teacher) are supported by sac, not by {algo}")
+        # stacked observations hold the newest first: the teacher sees that one
+        agent.set_teacher(lambda o: teacher(np.asarray(o)[:, :base_dim]))
     stats = EpisodeStats(max(100, n))
     iteration = env_steps = 0
     wall = 0.0

@@ -1,6 +1,13 @@
 """Soft Actor-Critic (Haarnoja et al. 2018): twin Q, Polyak-averaged targets, fixed or
 learned entropy temperature, a replay buffer and a uniform-random warm-up. One file.
 
+With a teacher (`set_teacher`, e.g. the scripted expert: `assetgen train --demos scripted`)
+the warm-up is played by the teacher instead (its episodes are the demonstrations the buffer
+starts from), every stored observation is labelled with the teacher's action, and the actor
+loss gains a behaviour-cloning term on the deterministic action, scaled like TD3+BC's (by the
+batch's mean |Q|, so its weight does not depend on the reward's scale) and decayed linearly
+to zero over `bc_decay_steps`: RL then takes over from a policy that already inserts.
+
 The runner drives it: `act(obs)` then `process_step(...)` every env step (which stores the
 transitions and runs the gradient steps); `update(last_obs)` at iteration boundaries only
 reports the mean losses since the last call.
@@ -10,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +68,17 @@ class SACConfig:
     """Rewards are multiplied by this before learning (logged returns are not)."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
+    bc_weight: float = 0.5
+    """With a teacher only: weight of the behaviour-cloning term at the start, relative to
+    the batch's mean |Q| (TD3+BC's normalisation; 0: no BC term, the teacher then only
+    plays the warm-up)."""
+    bc_decay_steps: int = 1_000_000
+    """With a teacher only: env steps (summed over envs) over which the BC weight falls
+    linearly to zero."""
+    teacher_noise: float = 0.2
+    """With a teacher only: standard deviation of the Gaussian noise added to its actions
+    during the warm-up (clipped to [-1, 1]), so the demonstrations cover more than its one
+    path."""
 
     def validate(self) -> SACConfig:
         checks = {
@@ -71,6 +90,9 @@ class SACConfig:
             "entropy_coef > 0": self.entropy_coef > 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
             "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
+            "bc_weight >= 0": self.bc_weight >= 0,
+            "bc_decay_steps >= 0": self.bc_decay_steps >= 0,
+            "teacher_noise >= 0": self.teacher_noise >= 0,
         }
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
@@ -102,10 +124,19 @@ class ReplayBuffer:
     float32 values.
     """
 
-    def __init__(self, capacity: int, obs_dim: int, act_dim: int, device: torch.device) -> None:
+    def __init__(
+        self,
+        capacity: int,
+        obs_dim: int,
+        act_dim: int,
+        device: torch.device,
+        teacher: bool = False,
+    ) -> None:
         self.capacity, self.device = capacity, device
         self.shapes = {"obs": (obs_dim,), "action": (act_dim,), "reward": (),
                        "next_obs": (obs_dim,), "terminated": ()}  # fmt: skip
+        if teacher:  # the teacher's action at obs, for the BC term
+            self.shapes["teacher_action"] = (act_dim,)
         self.data: dict[str, torch.Tensor] = {}
         self.pos = 0
         self.size = 0
@@ -160,6 +191,8 @@ class SAC:
         "pi_grad_norm",
         "alpha",
         "buffer_size",
+        "bc_loss",
+        "bc_weight",
     )
     """What `update` reports (the runner's log columns)."""
 
@@ -192,6 +225,8 @@ class SAC:
         )
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=lr, foreach=True)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim, act_dim, self.device)
+        self.teacher: Callable[[np.ndarray], np.ndarray] | None = None
+        self._teacher_action: torch.Tensor | None = None
         self.steps_per_iteration = cfg.steps_per_iteration
         self.env_steps = 0  # transitions collected, summed over envs
         self.grad_steps = 0
@@ -207,20 +242,46 @@ class SAC:
     def _t(self, a: np.ndarray) -> torch.Tensor:
         return torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device)
 
+    def set_teacher(self, teacher: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Learn from `teacher` (obs (N, obs_dim) -> actions (N, act_dim) in [-1, 1]): it
+        plays the warm-up and labels every stored observation for the BC term. Call before
+        the first step (or before loading a checkpoint made with a teacher)."""
+        if self.buffer.size:
+            raise RuntimeError("set_teacher must be called before any transition is stored")
+        self.teacher = teacher
+        cfg = self.cfg
+        self.buffer = ReplayBuffer(
+            cfg.buffer_size, self.buffer.shapes["obs"][0], self.act_dim, self.device, True
+        )
+
+    def bc_weight(self) -> float:
+        """The BC term's weight now: bc_weight decayed linearly to 0 over bc_decay_steps
+        (0 without a teacher)."""
+        cfg = self.cfg
+        if self.teacher is None or cfg.bc_weight == 0:
+            return 0.0
+        if cfg.bc_decay_steps == 0:
+            return cfg.bc_weight
+        return cfg.bc_weight * max(0.0, 1.0 - self.env_steps / cfg.bc_decay_steps)
+
     @property
     def alpha(self) -> torch.Tensor:
         return self.log_alpha.detach().exp()
 
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
-        """Actions (N, act_dim) in [-1, 1] for obs (N, obs_dim): uniform during warm-up,
-        else sampled from the policy."""
+        """Actions (N, act_dim) in [-1, 1] for obs (N, obs_dim): during warm-up uniform, or
+        the teacher's with noise; after it sampled from the policy."""
         o = self._t(obs)
-        if self.env_steps < self.cfg.warmup_steps:
+        teach = self._t(self.teacher(obs)) if self.teacher is not None else None
+        if self.env_steps >= self.cfg.warmup_steps:
+            a, _ = self.actor(o)
+        elif teach is None:
             a = torch.rand(len(o), self.act_dim, device=self.device) * 2.0 - 1.0
         else:
-            a, _ = self.actor(o)
-        self._obs, self._action = o, a
+            noise = self.cfg.teacher_noise * torch.randn_like(teach)
+            a = (teach + noise).clamp(-1.0, 1.0)
+        self._obs, self._action, self._teacher_action = o, a, teach
         return a.cpu().numpy()
 
     @torch.no_grad()
@@ -246,6 +307,7 @@ class SAC:
             reward=self._t(reward) * self.cfg.reward_scale,
             next_obs=self._t(nxt),
             terminated=self._t(terminated),
+            **({} if self._teacher_action is None else {"teacher_action": self._teacher_action}),
         )
         self.env_steps += len(reward)
         if self.env_steps < max(self.cfg.warmup_steps, self.cfg.batch_size):
@@ -285,6 +347,14 @@ class SAC:
         a, logp = self.actor(b["obs"])
         q = torch.min(self.q1(b["obs"], a), self.q2(b["obs"], a))
         pi_loss = (alpha * logp - q).mean()
+        bc_w = self.bc_weight()
+        bc_loss = torch.zeros((), device=self.device)
+        if bc_w > 0:
+            # TD3+BC's scaling: the BC term weighs bc_w relative to the typical |Q|, and it
+            # pulls the deterministic action (the one evaluated) towards the teacher's
+            mean_action, _ = self.actor(b["obs"], True)
+            bc_loss = (mean_action - b["teacher_action"]).pow(2).sum(-1).mean()
+            pi_loss = pi_loss + bc_w * q.abs().mean().detach() * bc_loss
         check_finite("SAC actor", pi_loss, log_pi=logp.mean(), q=q.mean())
         self.actor_opt.zero_grad(set_to_none=True)
         pi_loss.backward()
@@ -309,6 +379,7 @@ class SAC:
             ("q_mean", q1.mean()),
             ("q_grad_norm", q_norm),
             ("pi_grad_norm", pi_norm),
+            ("bc_loss", bc_loss),
         ):
             self._sums[k] = self._sums.get(k, 0.0) + v.detach()  # .item() once per iteration
         self._n_sums += 1
@@ -328,6 +399,7 @@ class SAC:
         out = {k: float(v) / self._n_sums for k, v in self._sums.items()} if self._n_sums else {}
         out["alpha"] = self.alpha.item()
         out["buffer_size"] = float(self.buffer.size)
+        out["bc_weight"] = self.bc_weight()
         self._sums, self._n_sums = {}, 0
         return out
 

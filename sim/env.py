@@ -28,8 +28,10 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -106,6 +108,8 @@ class PegInHoleVecEnv:
             spare = [modules[k] for k in self._queue]
         self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare, kernels)
         self.control_dt = self.cfg.control_dt
+        self.protocol: dict[str, Any] = {}
+        """How this env evaluates, for evaluation files (make_eval_env fills it)."""
 
         # per-module constants (of every module when rotating, else of the envs' modules),
         # indexed per env by _use_modules
@@ -425,16 +429,40 @@ def make_train_env(
     )
 
 
-def make_eval_env(dataset: str, num_envs: int | None, seed: int) -> PegInHoleVecEnv:
+def make_eval_env(
+    dataset: str, num_envs: int | None, seed: int, noise_scale: float = 1.0
+) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
-    envs than modules would leave modules out (ValueError), more would repeat some."""
+    envs than modules would leave modules out (ValueError), more would repeat some.
+    noise_scale multiplies the four noise standard deviations (robustness: 2 = twice the
+    paper's). The env's `protocol` dict names the dataset (folder and content hash), the
+    control period and the noise scale, for the evaluation file."""
+    from assetgen.dataset.reader import Dataset, content_hash
     from sim.config import EVAL_CONFIG
 
-    modules = load_dataset(_dataset_root(dataset))
+    if not (math.isfinite(noise_scale) and noise_scale >= 0):
+        raise ValueError(f"--noise-scale {noise_scale}: give a factor >= 0 (1: the paper's noise)")
+    root = _dataset_root(dataset)
+    modules = load_dataset(root)
     if num_envs is not None and num_envs < len(modules):
         raise ValueError(
             f"--envs {num_envs} is less than the dataset's {len(modules)} modules: a "
             "checkpoint is evaluated with one env per module; raise --envs"
         )
-    return PegInHoleVecEnv(modules, len(modules), EVAL_CONFIG, assignment_seed=seed)
+    c = EVAL_CONFIG
+    config = replace(
+        c,
+        obs_pos_noise=c.obs_pos_noise * noise_scale,
+        obs_rot_noise=c.obs_rot_noise * noise_scale,
+        act_lin_noise=c.act_lin_noise * noise_scale,
+        act_ang_noise=c.act_ang_noise * noise_scale,
+    )
+    env = PegInHoleVecEnv(modules, len(modules), config, assignment_seed=seed)
+    env.protocol = {
+        "dataset_folder": str(root),
+        "dataset_hash": content_hash(Dataset(root).records),
+        "control_dt": env.control_dt,
+        "noise_scale": noise_scale,
+    }
+    return env

@@ -168,11 +168,11 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     scripted baseline through the simulator's writer, all into one report."""
     import torch
 
-    from rl.commands import eval_main
+    from cli import _eval_hooks
+    from rl.commands import EvalHooks, eval_main
     from rl.ppo import PPOConfig
     from rl.presets import Setup
     from rl.runner import train
-    from sim.evaluate import eval_main as sim_eval_main
     from tests.test_sim_common import sim_dataset
     from tests.toy_env import ToyEnv
 
@@ -186,7 +186,7 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
         args = argparse.Namespace(run=out, dataset="test", episodes=2, envs=None, seed=0,
                                   device="cpu", stochastic=False, json=False,
                                   out=out / "eval_test.json")  # fmt: skip
-        assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n)) == 0
+        assert eval_main(args, EvalHooks(lambda dataset, n, seed, **kw: ToyEnv(n or 4), {})) == 0
         runs.append(out)
     stored = json.loads((runs[0] / "eval_test.json").read_text())
     assert {"algo", "stack", "dataset", "run", "episodes", "success_rate",
@@ -195,10 +195,10 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     test_split = tmp_path / "datasets/test"  # the folder's name is the split's
     test_split.parent.mkdir()
     test_split.symlink_to(sim_dataset(), target_is_directory=True)
-    sim_args = argparse.Namespace(agent="scripted", dataset=str(test_split), attempts=1,
-                                  seed=0, envs=4, record=None, record_limit=None,
+    sim_args = argparse.Namespace(agent="scripted", run=None, dataset=str(test_split),
+                                  episodes=1, seed=0, envs=4, record=None, record_limit=None,
                                   out=tmp_path / "results/scripted.json", json=True)  # fmt: skip
-    assert sim_eval_main(sim_args) == 0
+    assert eval_main(sim_args, _eval_hooks()) == 0
 
     (tmp_path / "results/bench_sim.json").write_text('{"env_steps_per_s": 1.0}')
     doc = write_report(runs, [tmp_path / "results"], tmp_path / "report")
@@ -217,3 +217,35 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     assert scripted["episodes"] == 4 and scripted["files"] == 1
     check_png(tmp_path / "report/time_to_success.png")
     assert "| scripted |" in markdown_table(summarise([load_run(r) for r in runs], []))
+
+
+def test_protocols_and_recipes_make_their_own_rows(tmp_path: Path) -> None:
+    """Sampled actions, demonstrations and overrides never pool with the plain rows."""
+    assert variant_name("sac", 1, "scripted") == "SAC+scripted"
+    assert variant_name("sac", 1, "scripted", {"bc_weight": 0.0}) == "SAC+scripted [bc_weight=0.0]"
+    a = fake_run(tmp_path / "runs/ppo_s0", "ppo", 1, 0, [100, 200], [0.1, 0.5])
+    fake_eval(a / "eval_test.json", "test", 0.6, 10, [2.0] * 6, algo="ppo", stack=1,
+              policy="deterministic")  # fmt: skip
+    fake_eval(a / "eval_test_sampled.json", "test", 0.9, 10, [1.0] * 9, algo="ppo", stack=1,
+              policy="stochastic")  # fmt: skip
+    b = fake_run(tmp_path / "runs/sacd_s0", "sac", 1, 0, [100, 200], [0.5, 0.9])
+    meta = json.loads((b / "config.json").read_text())
+    meta |= {"demos": "scripted", "overrides": {"bc_weight": 0.0}}
+    (b / "config.json").write_text(json.dumps(meta))
+    fake_eval(b / "eval_test.json", "test", 0.95, 20, [1.0] * 19, algo="sac", stack=1,
+              demos="scripted", overrides={"bc_weight": 0.0})  # fmt: skip
+    doc = write_report([a, b], [], tmp_path / "report")
+    assert doc["variants"]["PPO"]["eval"]["test"]["success_mean"] == pytest.approx(0.6)
+    assert doc["variants"]["PPO (sampled)"]["eval"]["test"]["success_mean"] == pytest.approx(0.9)
+    sac = doc["variants"]["SAC+scripted [bc_weight=0.0]"]
+    assert sac["seeds"] == [0] and sac["eval"]["test"]["episodes"] == 20
+    assert "SAC" not in doc["variants"] or not doc["variants"]["SAC"].get("eval")
+    # a second file of the same split and policy is refused; a bad policy too
+    fake_eval(a / "eval_test2.json", "test", 0.5, 10, [2.0] * 5, algo="ppo", stack=1)
+    with pytest.raises(ReportError, match="two evaluation files"):
+        write_report([a], [], tmp_path / "report")
+    (a / "eval_test2.json").unlink()
+    fake_eval(a / "eval_test2.json", "test", 0.5, 10, [2.0] * 5, algo="ppo", stack=1,
+              policy="greedy")  # fmt: skip
+    with pytest.raises(ReportError, match="greedy"):
+        write_report([a], [], tmp_path / "report")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from rl.commands import add_train_parser, eval_main
+from rl.commands import EvalHooks, add_train_parser, eval_main
 from rl.evaluate import evaluate
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
@@ -176,7 +176,7 @@ def test_commands(tmp_path, capsys) -> None:
 
     def make_env(dataset: str, num_envs: int, seed: int, **task):
         made.append((dataset, num_envs, seed, task))
-        return ToyEnv(num_envs)
+        return ToyEnv(num_envs or 2)  # evaluation: None = the env decides
 
     parser = argparse.ArgumentParser(prog="assetgen")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -195,9 +195,10 @@ def test_commands(tmp_path, capsys) -> None:
     assert meta["env_options"] == {"curriculum_steps": curriculum}
     args = argparse.Namespace(run=out, dataset="toy", episodes=1, envs=None, seed=0, device=None,
                               stochastic=False, json=True, out=None)  # fmt: skip
-    assert eval_main(args, make_env) == 0
+    assert eval_main(args, EvalHooks(make_env, {})) == 0
     ev = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert ev["algo"] == "ppo" and ev["stack"] == 2 and ev["episodes"] == 2
+    assert ev["policy"] == "deterministic" and ev["attempts"] == 1
     args = parser.parse_args(argv)  # the folder holds a run: refused, with a clear message
     assert args.func(args) == 2
     assert "already holds a run" in " ".join(capsys.readouterr().err.split())

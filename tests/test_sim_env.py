@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import shutil
 from dataclasses import replace
@@ -371,9 +372,12 @@ def test_training_needs_no_cad_stack_nor_viewer(tmp_path: Path, numba: bool) -> 
             "--steps", "64", "--out", run, "--no-progress", "--json")  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
     assert json.loads(r.stdout.strip().splitlines()[-1])["env_steps"] == 64
-    r = cli("eval", "--checkpoint", run, "--dataset", data, "--attempts", "1", "--json")
+    r = cli("eval", "--checkpoint", run, "--dataset", data, "--attempts", "1", "--json",
+            "--record", str(tmp_path / "rec"))  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
-    assert json.loads(r.stdout.strip().splitlines()[-1])["episodes"] == len(Dataset(data))
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["episodes"] == len(Dataset(data)) and res["policy"] == "deterministic"
+    assert len(list((tmp_path / "rec").glob("*.npz"))) == len(Dataset(data))
     code = f"from sim.env import make_train_env; print(make_train_env({data!r}, 2, 0).kernels)"
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert r.stdout.strip() == ("numba" if numba else "numpy"), r.stderr[-2000:]
@@ -388,3 +392,32 @@ def test_training_needs_no_cad_stack_nor_viewer(tmp_path: Path, numba: bool) -> 
     r = cli("view", data, "--html", str(tmp_path / "view.html"))
     assert r.returncode == 2 and "[view] extra" in r.stderr and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_sac_learns_from_the_scripted_teacher(tmp_path: Path) -> None:
+    """`train --demos scripted`: the expert plays the warm-up (so those episodes succeed),
+    its actions label the buffer, and the BC weight decays as configured; a missing source
+    is refused by name."""
+    import torch
+
+    from cli import main
+
+    torch.set_num_threads(1)
+    data, run = str(sim_dataset()), tmp_path / "run"
+    base = ["train", "--algo", "sac", "--preset", "debug", "--dataset", data, "--envs", "4",
+            "--steps", "1536", "--no-progress"]  # fmt: skip
+    argv = [*base, "--out", str(run), "--demos", "scripted", "--set", "warmup_steps=1024",
+            "--set", "bc_decay_steps=2048", "--set", "teacher_noise=0"]  # fmt: skip
+    assert main(argv) == 0
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["demos"] == "scripted" and meta["overrides"]["bc_decay_steps"] == 2048
+    assert meta["config"]["warmup_steps"] == 1024
+    rows = list(csv.DictReader(open(run / "metrics.csv")))
+    warm = [r for r in rows if int(r["env_steps"]) <= 1024 and r["success_rate"] not in ("", "nan")]
+    assert warm and float(warm[-1]["success_rate"]) >= 0.9  # the expert's episodes
+    w = [float(r["bc_weight"]) for r in rows]
+    expected = [0.5 * max(0.0, 1 - int(r["env_steps"]) / 2048) for r in rows]
+    assert w == pytest.approx(expected)
+    assert any(r["bc_loss"] not in ("", "nan") for r in rows)
+    assert main([*base, "--out", str(tmp_path / "r2"), "--demos", "nope"]) == 2
+    assert main([*base, "--out", str(tmp_path / "r3"), "--set", "bc_wt=1"]) == 2

@@ -1,20 +1,32 @@
-"""The scripted expert and the evaluation protocol on the small test set."""
+"""The scripted expert and the evaluation protocol on the small test set, through the one
+evaluation loop (`assetgen eval`)."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from sim.evaluate import evaluate
+from cli import main
+from rl.evaluate import evaluate
+from sim import make_eval_env
+from sim.expert import expert_action
+from sim.recording import EpisodeRecorder, env_labels
 from tests.test_sim_common import sim_dataset
 
 
 def test_scripted_expert_inserts_with_noise_on(tmp_path: Path) -> None:
-    res = evaluate(sim_dataset(), "scripted", attempts=2, seed=0, record=tmp_path / "rec")
-    print({k: v for k, v in res.items() if k != "time_to_success_s"})
-    assert res["episodes"] == 8
+    out = tmp_path / "scripted.json"
+    argv = ["eval", "--agent", "scripted", "--dataset", str(sim_dataset()), "--attempts", "2",
+            "--record", str(tmp_path / "rec"), "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    res = json.loads(out.read_text())
+    assert res["agent"] == "scripted" and res["policy"] == "deterministic"
+    assert res["episodes"] == 8 and res["attempts"] == 2
+    assert res["control_dt"] == 0.02 and res["noise_scale"] == 1.0
+    assert len(res["dataset_hash"]) == 64
     assert res["success_rate"] >= 0.95
     assert len(res["time_to_success_s"]) == round(8 * res["success_rate"])
     assert 0 < res["median_time_to_success_s"] < 10
@@ -22,11 +34,38 @@ def test_scripted_expert_inserts_with_noise_on(tmp_path: Path) -> None:
     assert len(files) == 4  # the first attempt on each module, by default
     ep = np.load(files[0])
     assert ep["poses"].shape == (len(ep["reward"]), 7)
-    assert str(ep["module_id"]) in res["per_module"]
+    assert str(ep["module_id"]) in res["per_module"] and len(res["per_module"]) == 4
     assert bool(ep["success"]) and math.isclose(float(ep["reward"].sum()), 1.0, abs_tol=1e-5)
 
 
-def test_random_agent_does_not_insert() -> None:
-    res = evaluate(sim_dataset(), "random", attempts=1, seed=0)
+def test_recorded_episode_starts_at_its_spawn(tmp_path: Path) -> None:
+    env = make_eval_env(str(sim_dataset()), None, 0)
+    rec = EpisodeRecorder(tmp_path, limit=6)
+    res = evaluate(expert_action, env, 2, seed=0, labels=env_labels(env), recorder=rec)
+    assert rec.written == 6 and res["episodes"] == 8
+    for f in sorted(tmp_path.glob("*.npz")):
+        ep = np.load(f)
+        # the first pose after the spawn is one control step away from it, not a jump
+        step = np.linalg.norm(ep["poses"][0, :3] - ep["spawn_pose"][:3])
+        assert step < 0.25 * 0.02 + 1e-3, f.name
+
+
+def test_random_agent_does_not_insert(capsys) -> None:
+    argv = ["eval", "--agent", "random", "--dataset", str(sim_dataset()), "--attempts", "1",
+            "--json"]  # fmt: skip
+    assert main(argv) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert res["episodes"] == 4 and res["success_rate"] == 0.0
+    assert res["policy"] == "stochastic"
     assert math.isnan(res["median_time_to_success_s"])
+
+
+def test_eval_refuses_bad_input(capsys) -> None:
+    d = str(sim_dataset())
+    assert main(["eval", "--dataset", d]) == 2
+    assert main(["eval", "--agent", "scripted", "--dataset", d, "--attempts", "0"]) == 2
+    assert "--attempts 0" in capsys.readouterr().err
+    assert main(["eval", "--agent", "scripted", "--dataset", d, "--noise-scale", "-1"]) == 2
+    assert "--noise-scale -1" in capsys.readouterr().err
+    assert main(["eval", "--agent", "scripted", "--dataset", d, "--stochastic"]) == 2
+    assert "--checkpoint" in capsys.readouterr().err
