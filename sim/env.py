@@ -240,9 +240,7 @@ class PegInHoleVecEnv:
         u = self.rng.random((3, k))  # static friction, dynamic friction, restitution
         lo, hi = np.array([cfg.friction_range, cfg.friction_range, cfg.restitution_range]).T
         _static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
-        self.sim.set_contact(
-            idx, dynamic, restitution_to_dampratio(restitution, cfg.physics)
-        )
+        self.sim.set_contact(idx, dynamic, restitution_to_dampratio(restitution, cfg.physics))
         self._start_episodes(idx, pos, quat)
 
     def set_peg_poses(self, idx: np.ndarray, poses: np.ndarray) -> None:
