@@ -75,10 +75,11 @@ class SACConfig:
     bc_decay_steps: int = 1_000_000
     """With a teacher only: env steps (summed over envs) over which the BC weight falls
     linearly to zero."""
-    teacher_noise: float = 0.2
+    teacher_noise: float = 0.05
     """With a teacher only: standard deviation of the Gaussian noise added to its actions
     during the warm-up (clipped to [-1, 1]), so the demonstrations cover more than its one
-    path."""
+    path. The scripted expert, one attempt on each test module: 100 % success at 0.05 (median
+    3.76 s), 97.6 % at 0.1, 28 % at 0.2 (it jams)."""
 
     def validate(self) -> SACConfig:
         checks = {

@@ -9,7 +9,7 @@ Files: config.py (the task's numbers), assets.py (module.json + STL only), scene
 model of one or more envs), batch.py (mujoco.rollout over per-env models), task.py
 (observation, reward, success, failure, spawn), step_impl.py / step_kernel.py /
 step_numpy.py (the per-step arithmetic, numba or numpy), env.py (the vector env), expert.py (a
-scripted expert), evaluate.py / bench.py (the paper's protocol, throughput),
+scripted expert), recording.py (episodes for the preview), bench.py (throughput),
 gym_adapter.py / torch_adapter.py (gymnasium and torch views).
 """
 
