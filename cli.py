@@ -354,11 +354,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     # torch (the `rl` extra) is imported when `train` or `report` runs, not here: it would
     # add over a second to every command
-    from rl.commands import add_report_parser, add_train_parser
+    from rl.commands import add_export_parser, add_report_parser, add_train_parser
     from sim import make_train_env
 
     add_train_parser(sub, make_train_env, TEACHERS)
     add_report_parser(sub)
+    add_export_parser(sub)
     return p
 
 
@@ -387,7 +388,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "viser": ("view",),
 }
 """Top-level module -> the extras of pyproject.toml that install it."""
-COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl"}
+COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl", "export": "rl"}
 """The extra to name first for a command, where a module comes with several."""
 
 

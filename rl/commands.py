@@ -362,6 +362,35 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     return 0
 
 
+def add_export_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register `export` (a run's policy, small enough to ship) on a subparsers object."""
+    p = subparsers.add_parser(
+        "export",
+        help="copy a run's trained networks (no optimiser, no replay) into a new folder",
+        description="Write RUN's networks to OUT/checkpoint.safetensors without optimiser "
+        "states, replay buffer or RNG states (it evaluates, it does not resume), with the "
+        "run's config.json, metrics.csv and eval_*.json, so `assetgen eval --checkpoint OUT` "
+        "and `assetgen report OUT` work on it.",
+    )
+    p.add_argument("run", type=Path, help="a training run folder")
+    p.add_argument("--out", type=Path, required=True, help="new folder for the policy")
+    p.set_defaults(func=export_main)
+    return p
+
+
+def export_main(args: argparse.Namespace) -> int:
+    from rl.checkpoint import CheckpointError
+    from rl.runner import export_policy
+
+    try:
+        res = export_policy(args.run, args.out)
+    except CheckpointError as e:
+        return _error(str(e))
+    for name, size in res["files"].items():
+        print(f"{args.out / name}  {size / 1e6:.2f} MB")
+    return 0
+
+
 def add_report_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register `report`: figures, Table III and report.json from runs and eval files."""
     p = subparsers.add_parser(

@@ -30,6 +30,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import random
 import time
 from collections import deque
@@ -359,8 +360,73 @@ def load_agent(
         device or default_device(),
         meta["seed"],
     )
-    ckpt.load_modules(agent.modules(), doc["agent"], tensors)
+    modules = agent.modules()
+    if doc.get("policy_only"):  # an exported policy: the networks, no optimisers
+        modules = {k: m for k, m in modules.items() if isinstance(m, torch.nn.Module)}
+    ckpt.load_modules(modules, doc["agent"], tensors)
     return agent, meta
+
+
+RUN_FILES = ("config.json", "metrics.csv")
+"""Copied by `export_policy` with the weights: what `assetgen report` reads of a run."""
+
+
+def export_policy(run: str | Path, out_dir: str | Path) -> dict[str, Any]:
+    """Write a run's networks, without optimiser states, replay buffer or RNG states, to
+    out_dir/checkpoint.safetensors (what `load_agent` and `assetgen eval --checkpoint` read;
+    it cannot be resumed), with the run's config.json, metrics.csv and evaluation files.
+    Returns {"files": {name: bytes}}. The folder is filled under a temporary name and then
+    renamed, so an interrupted export leaves nothing half-written."""
+    import shutil
+
+    run = Path(run)
+    src = run / CHECKPOINT if run.is_dir() else run
+    tensors, doc = ckpt.load(src)
+    if doc.get("policy_only"):
+        raise ckpt.CheckpointError(f"{src} is already an exported policy")
+    agent_doc = {}
+    for name, tree in doc["agent"].items():
+        if not _is_optimizer_state(tree):
+            agent_doc[name] = tree
+    keep: dict[str, torch.Tensor] = {}
+    _collect(agent_doc, tensors, keep)
+    out_doc = {
+        "run": doc["run"],
+        "counters": doc["counters"],
+        "agent": agent_doc,
+        "policy_only": True,
+        "versions": doc.get("versions", {}),
+    }
+    out_dir = Path(out_dir)
+    if out_dir.exists():
+        raise ckpt.CheckpointError(f"{out_dir} exists: choose a new folder for the export")
+    tmp = out_dir.with_name(f".{out_dir.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    ckpt.save(tmp / CHECKPOINT, keep, out_doc)
+    folder = src.parent
+    for f in [*(folder / n for n in RUN_FILES), *sorted(folder.glob("eval_*.json"))]:
+        if f.is_file():
+            shutil.copy2(f, tmp / f.name)
+    os.replace(tmp, out_dir)
+    return {"files": {f.name: f.stat().st_size for f in sorted(out_dir.iterdir())}}
+
+
+def _is_optimizer_state(tree: Any) -> bool:
+    return isinstance(tree, dict) and "param_groups" in tree and "state" in tree
+
+
+def _collect(tree: Any, tensors: dict[str, torch.Tensor], out: dict[str, torch.Tensor]) -> None:
+    """Copy into `out` every tensor that the packed `tree` refers to."""
+    if isinstance(tree, dict):
+        if "__tensor__" in tree:
+            out[tree["__tensor__"]] = tensors[tree["__tensor__"]]
+            return
+        for v in tree.values():
+            _collect(v, tensors, out)
+    elif isinstance(tree, list):
+        for v in tree:
+            _collect(v, tensors, out)
 
 
 # ----------------------------------------------------------------------------- train
@@ -435,6 +501,11 @@ def train(
 
     if resume:
         tensors, doc = ckpt.load(path)
+        if doc.get("policy_only"):
+            raise ckpt.CheckpointError(
+                f"{path} is an exported policy (`assetgen export`): without its optimiser "
+                "states and replay it evaluates but cannot resume; resume the original run"
+            )
         ckpt.check_compatible(doc["run"], meta, path)
         ckpt.load_modules(agent.modules(), doc["agent"], tensors)
         extra = doc["agent_extra"]

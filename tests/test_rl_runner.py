@@ -213,3 +213,30 @@ def test_commands(tmp_path, capsys) -> None:
     )
     assert args.func(args) == 2
     assert "--curriculum-steps -1" in " ".join(capsys.readouterr().err.split())
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_exported_policy_acts_like_the_run_and_is_small(algo, tmp_path) -> None:
+    from rl.checkpoint import CheckpointError
+    from rl.runner import export_policy
+
+    setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
+    run = tmp_path / "run"
+    _train(algo, ToyEnv(4), setup, run, stack=2, steps=256)
+    (run / "eval_test.json").write_text("{}")
+    res = export_policy(run, tmp_path / "policy")
+    assert set(res["files"]) == {"checkpoint.safetensors", "config.json", "metrics.csv",
+                                 "eval_test.json"}  # fmt: skip
+    full = (run / "checkpoint.safetensors").stat().st_size
+    assert res["files"]["checkpoint.safetensors"] < full / 2  # no optimiser, no replay
+    a, meta_a = load_agent(run, "cpu")
+    b, meta_b = load_agent(tmp_path / "policy", "cpu")
+    assert meta_a == meta_b
+    obs = np.random.default_rng(0).normal(size=(5, meta_a["obs_dim"])).astype(np.float32)
+    np.testing.assert_array_equal(a.policy(obs), b.policy(obs))
+    with pytest.raises(CheckpointError, match="exists"):
+        export_policy(run, tmp_path / "policy")
+    with pytest.raises(CheckpointError, match="already an exported policy"):
+        export_policy(tmp_path / "policy", tmp_path / "again")
+    with pytest.raises(CheckpointError, match="cannot resume"):
+        _train(algo, ToyEnv(4), setup, tmp_path / "policy", stack=2, steps=512, resume=True)
