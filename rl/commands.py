@@ -411,16 +411,24 @@ def add_report_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
         help="evaluation JSON files, or folders of them (e.g. results/)",
     )
     p.add_argument("--out", type=Path, required=True, help="report folder")
+    p.add_argument(
+        "--readme",
+        type=Path,
+        help="also write the table into this markdown file, between the lines "
+        "<!-- shipped-table:begin --> and <!-- shipped-table:end -->",
+    )
     p.set_defaults(func=report_main)
     return p
 
 
 def report_main(args: argparse.Namespace) -> int:
     """Write the report; print the table. Exit code 0, or 2 on bad input."""
-    from rl.report import ReportError, write_report
+    from rl.report import ReportError, replace_table, write_report
 
     try:
         doc = write_report(args.runs, args.baselines, args.out)
+        if getattr(args, "readme", None) is not None:
+            replace_table(args.readme, (args.out / "table.md").read_text())
     except ReportError as e:
         from rich.console import Console
 

@@ -497,3 +497,28 @@ def write_report(
     doc = report_json(summary) | {"skipped_baselines": [str(f) for f in skipped]}
     (out / "report.json").write_text(json.dumps(doc, indent=2))
     return doc
+
+
+TABLE_BEGIN, TABLE_END = "<!-- shipped-table:begin -->", "<!-- shipped-table:end -->"
+"""The lines between which `assetgen report --readme FILE` writes the table."""
+
+
+def replace_table(path: str | Path, table: str) -> None:
+    """Put `table` between TABLE_BEGIN and TABLE_END in the markdown file `path` (written to
+    a temporary name, then renamed); ReportError when the markers are missing."""
+    import os
+
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ReportError(f"{path}: cannot read it ({e})") from e
+    start, end = text.find(TABLE_BEGIN), text.find(TABLE_END)
+    if start < 0 or end < start:
+        raise ReportError(
+            f"{path} lacks the lines {TABLE_BEGIN} and {TABLE_END}: add them where the table goes"
+        )
+    new = text[: start + len(TABLE_BEGIN)] + "\n" + table.strip() + "\n" + text[end:]
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(new)
+    os.replace(tmp, path)

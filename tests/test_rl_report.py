@@ -249,3 +249,16 @@ def test_protocols_and_recipes_make_their_own_rows(tmp_path: Path) -> None:
               policy="greedy")  # fmt: skip
     with pytest.raises(ReportError, match="greedy"):
         write_report([a], [], tmp_path / "report")
+
+
+def test_readme_table_is_replaced_between_its_markers(tmp_path: Path) -> None:
+    from rl.report import TABLE_BEGIN, TABLE_END, replace_table
+
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# x\n\nbefore\n{TABLE_BEGIN}\nold\n{TABLE_END}\nafter\n")
+    replace_table(readme, "| a |\n|---|\n")
+    assert readme.read_text() == f"# x\n\nbefore\n{TABLE_BEGIN}\n| a |\n|---|\n{TABLE_END}\nafter\n"
+    readme.write_text("no markers\n")
+    with pytest.raises(ReportError, match="shipped-table:begin"):
+        replace_table(readme, "| a |")
+    assert readme.read_text() == "no markers\n"
