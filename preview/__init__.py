@@ -8,7 +8,7 @@
 With a policy (`assetgen view DATASET --policy RUN_OR_POLICY_DIR [--record DIR]`) the page
 gets a Policy folder: run the trained policy on the shown module in real time (50 Hz
 control), pause, one step at a time, or a new random spawn; the true peg is drawn with the
-observed (noisy) one in translucent blue beside it, with time, reward and success. Every
+observed (noisy) one as a blue wireframe over it, with time, reward and success. Every
 episode is written as an episode .npz (default folder: a new temporary one, printed) that
 "Load episode" replays. NaN actions stop the run with a message in the page.
 

@@ -18,9 +18,9 @@ PEG_COLOR = (235, 130, 45)
 SECTION_BODY_COLOR = (120, 150, 200)
 OUTLINE_COLOR = (20, 20, 20)
 PATH_COLOR = (40, 160, 90)
-OBSERVED_COLOR = (40, 110, 230)
-OBSERVED_OPACITY = 0.45
-"""The peg at its observed (noisy) pose: translucent blue, so the true peg shows through."""
+OBSERVED_COLOR = (30, 90, 230)
+"""The peg at its observed (noisy) pose: a blue wireframe, so the true peg stays visible
+(the two are a millimetre apart at most, mostly)."""
 PIECE_COLORS = (
     (230, 25, 75),
     (60, 180, 75),
@@ -117,8 +117,7 @@ def add_observed_peg(
         p.vertices,
         p.faces,
         color=OBSERVED_COLOR,
-        opacity=OBSERVED_OPACITY,
-        flat_shading=True,
+        wireframe=True,
         cast_shadow=False,
         position=pos,
         wxyz=quat,

@@ -678,7 +678,7 @@ class PreviewApp:
             self.g_live_run = gui.add_button_group("policy", ("▶ run", "Ⅱ pause", "step"))
             self.g_live_spawn = gui.add_button("new spawn", hint="another random start pose")
             self.g_show_observed = gui.add_checkbox(
-                "observed peg", True, hint="the noisy pose the policy sees (blue)"
+                "observed peg", True, hint="the noisy pose the policy sees (blue wireframe)"
             )
             self.g_live_now = gui.add_markdown("pick a module and press run")
         actions = {"▶ run": self.live_run, "Ⅱ pause": self.live_pause, "step": self.live_step}
