@@ -209,6 +209,27 @@ def test_checkpoint_that_does_not_fit_the_task_is_named(tmp_path):
         LivePolicy(stacked, tmp_path / "rec")
 
 
+def test_stacking_policy_plays_on_stacked_observations(tmp_path):
+    from cli import main
+    from rl.stack import StackObs
+
+    run = tmp_path / "stack2"
+    argv = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
+            "--envs", "2", "--steps", "64", "--stack", "2", "--out", str(run),
+            "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    live = LivePolicy(run, tmp_path / "rec")
+    try:
+        live.set_module(Dataset(sim_dataset()).module_dir("002051"))
+        for _ in range(3):
+            live.step()
+        assert isinstance(live.env, StackObs) and live.env.obs_dim == 36
+        assert live.frame.step == 3 and live.frame.observation_error()[0] < 0.005
+    finally:
+        live.close()
+    assert len(live.written) == 1  # the episode under way, recorded on close
+
+
 def _view_args(*argv: str) -> argparse.Namespace:
     p = argparse.ArgumentParser()
     command.add_arguments(p)
