@@ -1,6 +1,7 @@
 """CLI wiring for `assetgen view` (kept import-light: viser loads only when the command runs).
 
     assetgen view DATASET [--module ID] [--episode FILE] [--host H] [--port P] [--html OUT]
+                          [--policy RUN_OR_POLICY_DIR [--record DIR]]
 
 In cli.py:
     v = sub.add_parser("view", help="browser preview of modules and episodes (viser)")
@@ -32,17 +33,51 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="write a self-contained HTML snapshot to this file and exit (no server)",
     )
+    p.add_argument(
+        "--policy",
+        type=Path,
+        default=None,
+        help="training run or exported policy folder (holds checkpoint.safetensors): run it "
+        "live on the shown module (needs the [rl] extra)",
+    )
+    p.add_argument(
+        "--record",
+        type=Path,
+        default=None,
+        help="with --policy: folder for the live episodes (.npz, replayable with Load episode; "
+        "default: a new temporary folder, printed at start)",
+    )
 
 
 def view_main(args: argparse.Namespace) -> int:
     """Run `assetgen view`: the live viewer until Ctrl-C, or `--html` a snapshot. Returns the
-    exit status: 2 for a dataset that cannot be read or a host it cannot listen on (the live
-    viewer reports bad data found later, e.g. a corrupt module, in the page and keeps
+    exit status: 2 for a dataset that cannot be read, a host it cannot listen on, or a
+    --policy without a checkpoint or one that does not fit the task (the live viewer reports
+    bad data found later, e.g. a corrupt module or NaN actions, in the page and keeps
     running)."""
     from rich.console import Console
     from rich.markup import escape
 
     err = Console(stderr=True)
+
+    def fail(text: str) -> int:
+        err.print(f"[bold red]error:[/] {escape(text)}", highlight=False, soft_wrap=True)
+        return 2
+
+    policy = getattr(args, "policy", None)  # absent when a caller builds args by hand
+    record = getattr(args, "record", None)
+    if policy is not None and args.html is not None:
+        return fail("--policy runs in the live viewer; drop --html (a snapshot cannot step)")
+    if record is not None and policy is None:
+        return fail("--record DIR records the live runs of --policy; give --policy RUN too")
+    if policy is not None:
+        from preview.live import find_checkpoint
+        from preview.scene import PreviewError
+
+        try:
+            find_checkpoint(policy)  # before loading torch: a wrong path is told at once
+        except PreviewError as e:
+            return fail(str(e))
     if args.html is not None:
         from preview.scene import PreviewError
         from preview.snapshot import write_html
@@ -50,8 +85,7 @@ def view_main(args: argparse.Namespace) -> int:
         try:
             path = write_html(args.dataset, args.html, module=args.module, episode=args.episode)
         except PreviewError as e:
-            err.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
-            return 2
+            return fail(str(e))
         size = path.stat().st_size / 1e6
         print(f"wrote {path} ({size:.1f} MB): opens in a browser without a server")
         return 0
@@ -67,9 +101,10 @@ def view_main(args: argparse.Namespace) -> int:
             host=args.host,
             port=args.port,
             console=err,
+            policy=policy,
+            record=record,
         )
-    except PreviewError as e:  # no such dataset, or a host it cannot listen on
-        err.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
-        return 2
+    except PreviewError as e:  # no such dataset, a host it cannot listen on, a bad policy
+        return fail(str(e))
     handle.wait()
     return 0

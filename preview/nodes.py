@@ -18,6 +18,9 @@ PEG_COLOR = (235, 130, 45)
 SECTION_BODY_COLOR = (120, 150, 200)
 OUTLINE_COLOR = (20, 20, 20)
 PATH_COLOR = (40, 160, 90)
+OBSERVED_COLOR = (30, 90, 230)
+"""The peg at its observed (noisy) pose: a blue wireframe, so the true peg stays visible
+(the two are a millimetre apart at most, mostly)."""
 PIECE_COLORS = (
     (230, 25, 75),
     (60, 180, 75),
@@ -101,6 +104,25 @@ def add_module(
                 wxyz=np.asarray(f.quat),
             )
     return h
+
+
+def add_observed_peg(
+    scene: viser.SceneApi, view: ModuleView, name: str = "/module/observed"
+) -> Any:
+    """A second peg for the pose a policy observes (hidden until placed by a live run)."""
+    pos, quat = view.peg_pose(0.0)
+    p = view.peg
+    return scene.add_mesh_simple(
+        name,
+        p.vertices,
+        p.faces,
+        color=OBSERVED_COLOR,
+        wireframe=True,
+        cast_shadow=False,
+        position=pos,
+        wxyz=quat,
+        visible=False,
+    )
 
 
 def add_section(

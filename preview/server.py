@@ -17,7 +17,7 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import viser
@@ -38,6 +38,9 @@ from preview.scene import (
     open_dataset,
 )
 
+if TYPE_CHECKING:  # preview.live (and torch with it) is imported only with a policy
+    from preview.live import LiveFrame, LivePolicy
+
 LOOPBACK_DEFAULT = "127.0.0.1"
 TILT_MAX_DEG = 25.0
 """Upper end of the tilt filter slider, degrees (Table I: at most 15° about x and y, i.e.
@@ -45,6 +48,10 @@ about 21.2° in total)."""
 SPEEDS = ("0.25", "0.5", "1", "2", "4")
 VIEW_CACHE = 64
 """Module views kept in memory (a view is a few hundred kB at most)."""
+LIVE_CAMERA_POSITION = (0.3, -0.4, 0.32)
+LIVE_CAMERA_LOOK_AT = (0.0, 0.0, 0.1)
+"""Camera with a policy: the task spawns the peg up to 25 cm beside and above the entrance,
+beyond the default view of the plate."""
 
 
 def is_loopback(host: str) -> bool:
@@ -139,6 +146,9 @@ class PreviewApp:
         self._player: threading.Thread | None = None
         self._syncing = False
         self._grid_shown = False
+        self.live: LivePolicy | None = None
+        self._live_shown = False
+        """The live run is what the scene shows (until an episode is loaded)."""
         server.gui.configure_theme(control_width="large", show_share_button=False)
         nodes.configure_camera(server)
         self._build_gui()
@@ -151,7 +161,8 @@ class PreviewApp:
         with gui.add_folder("Dataset"):
             self.g_dataset = gui.add_text("dataset", "", hint="spec name or dataset folder")
             self.g_open = gui.add_button("Open dataset")
-        with gui.add_folder("Module"):
+        self.f_module = gui.add_folder("Module")
+        with self.f_module:
             self.g_vertices = gui.add_dropdown("vertices", ("any",), hint="cross-section")
             self.g_tilt = gui.add_multi_slider(
                 "hole tilt (°)", 0.0, TILT_MAX_DEG, 0.1, (0.0, TILT_MAX_DEG), min_range=0.0
@@ -237,7 +248,9 @@ class PreviewApp:
     def open_dataset(self, name: str | Path, module: str | None = None) -> bool:
         """Open a dataset (spec name or folder) and show `module` (default: its first)."""
         self.pause()  # outside the lock: the player thread may be waiting for it
+        self.live_pause()
         with self.lock:
+            self._live_shown = False
             self.g_dataset.value = str(name)
             try:
                 ds = open_dataset(name)
@@ -346,6 +359,10 @@ class PreviewApp:
                 self.g_module.value = mid
             self._remove("/module")
             self.nodes.update(nodes.add_module(self.server.scene, view))
+            if self.live is not None:
+                self.nodes["/module/observed"] = nodes.add_observed_peg(self.server.scene, view)
+                if self.live.module_id != mid:
+                    self.live.stop_soon()  # it plays another module: not worth stepping on
             self.g_info.content = view.header_markdown()
             self.g_params.content = view.params_markdown()
             lift_mm = view.max_lift_m * 1e3
@@ -372,12 +389,28 @@ class PreviewApp:
             self.episode is not None
             and self.view is not None
             and self.episode.module_id == self.view.id
+            and not self._live_active()
+        )
+
+    def _live_active(self) -> bool:
+        """The policy's run on the shown module is what the scene shows."""
+        frame = self.live.frame if self.live is not None else None
+        return (
+            self._live_shown
+            and frame is not None
+            and self.view is not None
+            and frame.module_id == self.view.id
         )
 
     def peg_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """The peg's pose shown now (position m, quaternion wxyz), module frame: the episode
-        step when an episode of this module is loaded, else the lift slider's."""
+        """The peg's pose shown now (position m, quaternion wxyz), module frame: the live
+        policy's when it runs on this module, else the episode step when an episode of this
+        module is loaded, else the lift slider's."""
         assert self.view is not None
+        if self._live_active():
+            assert self.live is not None and self.live.frame is not None
+            pose = self.live.frame.true_pose
+            return pose[:3].copy(), pose[3:].copy()
         if self._episode_active():
             assert self.episode is not None
             k = int(self.g_ep_step.value)
@@ -394,6 +427,11 @@ class PreviewApp:
             with self.server.atomic():
                 peg.position = pos
                 peg.wxyz = quat
+                if self._live_active() and "/module/observed" in self.nodes:
+                    assert self.live is not None and self.live.frame is not None
+                    seen = self.live.frame.observed_pose
+                    self.nodes["/module/observed"].position = seen[:3]
+                    self.nodes["/module/observed"].wxyz = seen[3:]
             if self._episode_active():
                 self._episode_now()
             if section and self.g_section.value:
@@ -421,6 +459,7 @@ class PreviewApp:
                 "/module": single,
                 "/module/body": self.g_show_body.value and not cut,
                 "/module/peg": self.g_show_peg.value and not cut,
+                "/module/observed": self._live_active() and self._show_observed() and not cut,
                 "/module/collision": self.g_show_coll.value,
                 "/module/entrance": self.g_show_entrance.value,
                 "/module/bottom": self.g_show_bottom.value,
@@ -489,6 +528,7 @@ class PreviewApp:
     def load_episode(self, path: str | Path) -> bool:
         """Load an episode of the open dataset and show its module; False + message on error."""
         self.pause()  # outside the lock: the player thread may be waiting for it
+        self.live_pause()
         with self.lock:
             self.g_ep_path.value = str(path)
             if self.ds is None:
@@ -501,6 +541,7 @@ class PreviewApp:
                 self.report("error", str(e))
                 return False
             self.episode = ep
+            self._live_shown = False  # the episode takes the scene over
             # Clear the filters so the episode's module is listed.
             self.g_vertices.value = "any"
             self.g_tilt.value = (0.0, TILT_MAX_DEG)
@@ -552,10 +593,13 @@ class PreviewApp:
     def _episode_gui_state(self) -> None:
         active = self._episode_active()
         self.g_ep_step.disabled = not active
-        self.g_lift.disabled = active
+        self.g_lift.disabled = active or self._live_active()
         if self.episode is not None and not active:
             self.g_ep_now.content = (
-                f"the loaded episode ran on module {self.episode.module_id}; select it to replay"
+                "the policy's run is shown; load the episode again to replay it"
+                if self._live_active()
+                else f"the loaded episode ran on module {self.episode.module_id}; select it to "
+                "replay"
             )
 
     def _episode_now(self) -> None:
@@ -616,8 +660,122 @@ class PreviewApp:
                 return
             self.g_ep_step.value = k  # the slider's callback moves the peg
 
+    # ------------------------------------------------------------------ live policy
+
+    def attach_policy(self, live: LivePolicy) -> None:
+        """Add the Policy controls for `live` (run, pause, one step, new spawn) and show
+        its runs: the true peg, the observed one beside it, time and success."""
+        self.live = live
+        live.on_step = self._live_frame
+        live.on_error = self._live_error
+        gui = self.server.gui
+        name = live.algo + (f"-STACK {live.stack}" if live.stack > 1 else "")
+        with gui.add_folder("Policy", order=self.f_module.order + 0.5):
+            gui.add_markdown(
+                f"**{_md_escape(name)}** policy {_md_escape(str(live.checkpoint.parent))}  \n"
+                f"episodes are recorded to {_md_escape(str(live.record_dir))}"
+            )
+            self.g_live_run = gui.add_button_group("policy", ("▶ run", "Ⅱ pause", "step"))
+            self.g_live_spawn = gui.add_button("new spawn", hint="another random start pose")
+            self.g_show_observed = gui.add_checkbox(
+                "observed peg", True, hint="the noisy pose the policy sees (blue wireframe)"
+            )
+            self.g_live_now = gui.add_markdown("pick a module and press run")
+        actions = {"▶ run": self.live_run, "Ⅱ pause": self.live_pause, "step": self.live_step}
+        self.g_live_run.on_click(lambda e: actions[e.target.value]())
+        self.g_live_spawn.on_click(lambda _: self.live_spawn())
+        self.g_show_observed.on_update(lambda _: self._apply_visibility())
+        # The spawn volume is larger than the default view of the plate.
+        self.server.initial_camera.position = LIVE_CAMERA_POSITION
+        self.server.initial_camera.look_at = LIVE_CAMERA_LOOK_AT
+        self._move_cameras(LIVE_CAMERA_POSITION, LIVE_CAMERA_LOOK_AT)
+        if self.view is not None:
+            self.show_module(self.view.id)  # adds the observed peg
+
+    def _show_observed(self) -> bool:
+        return self.live is not None and bool(self.g_show_observed.value)
+
+    def _live_ready(self) -> bool:
+        """Point the policy at the shown module and let its run take the scene over. Called
+        outside the lock: switching modules waits for the stepping thread, which takes it."""
+        assert self.live is not None
+        with self.lock:
+            if self.ds is None or self.view is None or self.g_grid.value:
+                self.report("warning", "show one module (grid off) to run the policy on")
+                return False
+            module_dir = self.ds.module_dir(self.view.id)
+        self.pause()  # the episode replay
+        self._live_shown = True
+        try:
+            self.live.set_module(module_dir)
+        except PreviewError as e:
+            self.report("error", str(e))
+            return False
+        with self.lock:
+            self._episode_gui_state()
+            self._place_peg()
+            self._apply_visibility()
+        return True
+
+    def live_run(self) -> None:
+        """Run the policy on the shown module in real time (to the episode's end)."""
+        if self.live is not None and self._live_ready():
+            self.live.run()
+
+    def live_pause(self) -> None:
+        """Stop the policy's run where it is."""
+        if self.live is not None:
+            self.live.pause()
+
+    def live_step(self) -> None:
+        """One control step of the policy (pauses a run first)."""
+        if self.live is not None and self._live_ready():
+            self.live.step()
+
+    def live_spawn(self) -> None:
+        """A new random start pose for the shown module."""
+        if self.live is not None and self._live_ready():
+            self.live.spawn()
+
+    def _live_frame(self, frame: LiveFrame) -> None:
+        """Draw a step of the policy's run (from its stepping thread)."""
+        with self.lock:
+            view = self.view
+            if view is None or frame.module_id != view.id or not self._live_active():
+                if self.live is not None:
+                    self.live.stop_soon()  # another module or an episode is shown now
+                return
+            self._place_peg()
+            self.g_live_now.content = _live_markdown(frame)
+            if frame.recording is not None:
+                self.g_ep_path.value = str(frame.recording)  # "Load episode" replays it
+                self.report(
+                    "info",
+                    f"module {frame.module_id}: {frame.ended} after {frame.time_s:.2f} s; "
+                    f"recorded {frame.recording}",
+                )
+
+    def _live_error(self, text: str) -> None:
+        with self.lock:
+            self.report("error", text)
+
     def close(self) -> None:
         self.pause()
+        if self.live is not None:
+            self.live.close()
+
+
+def _live_markdown(frame: LiveFrame) -> str:
+    """Time, step, reward, success and the observation's error of a live frame."""
+    d, deg = frame.observation_error()
+    head = f"t = **{frame.time_s:.2f} s** (step {frame.step} / {frame.max_steps})"
+    if frame.ended is not None:
+        head += f", ended: **{frame.ended}**"
+    return (
+        f"{head}  \nreward {frame.reward:+.4f} · return {frame.episode_return:+.3f} · "
+        f"success: **{'yes' if frame.success else 'no'}**  \n"
+        f"observed − true: {d * 1e3:.2f} mm, {deg:.2f}°"
+    )
 
 
 @dataclass
@@ -666,6 +824,8 @@ def serve(
     host: str = LOOPBACK_DEFAULT,
     port: int | None = None,
     console: Console | None = None,
+    policy: Path | str | None = None,
+    record: Path | str | None = None,
 ) -> ViewerHandle:
     """Start the preview of `dataset` (spec name or folder) and return at once.
 
@@ -673,8 +833,21 @@ def serve(
     next free port if `port` is taken). Prints the URL; warns when `host` is not loopback
     (viser has no authentication). Bad input is reported in the terminal and the page and
     the server keeps running. Stop it with `handle.stop()` or block with `handle.wait()`.
+
+    `policy` (a run or exported policy folder, or its checkpoint file) adds the Policy
+    controls (preview/live.py); its episodes are written to `record` (default: a new
+    temporary folder, printed). A policy that cannot be loaded or does not fit the task
+    raises PreviewError before the server starts.
     """
     console = console or Console(stderr=True)
+    live = None
+    if policy is not None:
+        from preview.live import LivePolicy
+
+        live = LivePolicy(policy, record)
+        console.print(
+            f"live policy: episodes are recorded to [bold]{live.record_dir}[/]", highlight=False
+        )
     server = start_server(host, 0 if port is None else port)
     bound = server.get_port()
     url = _url(host, bound)
@@ -686,6 +859,8 @@ def serve(
         console.print(f"[bold yellow]warning:[/] {escape(warn)}", highlight=False, soft_wrap=True)
     app = PreviewApp(server, console)
     app.open_dataset(dataset, module=module)
+    if live is not None:
+        app.attach_policy(live)
     if episode is not None:
         app.load_episode(episode)
     return ViewerHandle(server, app, url, host, bound)

@@ -1,6 +1,6 @@
 """Episodes recorded as they are played (`assetgen eval --record DIR`), one .npz per episode
 for the browser preview: module_id, poses (T, 7) true position + quaternion (w x y z) after
-each control step, spawn_pose (7,), reward (T,), success.
+each control step, spawn_pose (7,), reward (T,), success; optionally dt (seconds per step).
 
 `EpisodeRecorder` follows the recorder protocol of the evaluation loop (rl/evaluate.py), so
 the scripted, random and trained agents record the same way.
@@ -62,14 +62,39 @@ class EpisodeRecorder:
             self._rewards[i] = []
 
     def _write(self, module: str, attempt: int, i: int, success: bool) -> None:
-        self.folder.mkdir(parents=True, exist_ok=True)
         poses = self._poses[i]
-        np.savez_compressed(
+        save_episode(
             self.folder / f"episode_{self.written:05d}_{module}_{attempt}.npz",
-            module_id=np.array(module),
-            poses=np.asarray(poses[1:], dtype=np.float32),
-            spawn_pose=np.asarray(poses[0], dtype=np.float32),
-            reward=np.asarray(self._rewards[i], dtype=np.float32),
-            success=np.array(success),
+            module,
+            poses[0],
+            poses[1:],
+            self._rewards[i],
+            success,
         )
         self.written += 1
+
+
+def save_episode(
+    path: str | Path,
+    module_id: str,
+    spawn_pose: np.ndarray,
+    poses: np.ndarray | list[np.ndarray],
+    reward: np.ndarray | list[float],
+    success: bool,
+    dt: float | None = None,
+) -> Path:
+    """Write one episode file (the keys of the module docstring; `dt`, seconds per step,
+    only when given). The one writer of this format, so every recording replays alike."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    extra = {} if dt is None else {"dt": np.array(float(dt))}
+    np.savez_compressed(
+        path,
+        module_id=np.array(module_id),
+        poses=np.asarray(poses, dtype=np.float32).reshape(-1, 7),
+        spawn_pose=np.asarray(spawn_pose, dtype=np.float32),
+        reward=np.asarray(reward, dtype=np.float32),
+        success=np.array(success),
+        **extra,
+    )
+    return path

@@ -1,8 +1,9 @@
 """End to end in a real headless browser: Debian's Chromium driven by Playwright (its Python
 package only; no `playwright install`, no downloaded browser). Opens the live viewer, waits
 for the scene, switches the module through the GUI and checks that the rendered picture is
-not blank and changes with the module; then opens an HTML snapshot from file:// with the
-network off and checks it renders too.
+not blank and changes with the module; runs a trained policy live through the GUI and checks
+that its time, success and the picture change; then opens an HTML snapshot from file:// with
+the network off and checks it renders too.
 
 Skipped only when /usr/bin/chromium is absent (CI: apt-get install chromium).
 """
@@ -10,6 +11,7 @@ Skipped only when /usr/bin/chromium is absent (CI: apt-get install chromium).
 from __future__ import annotations
 
 import io
+import re
 import shutil
 import tempfile
 import time
@@ -153,6 +155,46 @@ def test_live_viewer_renders_and_switches_module(page: Page, preview_dataset, tm
         origin = handle.url.rstrip("/")
         foreign = [u for u in requests if not u.startswith((origin, "data:", "blob:"))]
         assert not foreign, f"the page fetched from elsewhere: {foreign[:5]}"
+    finally:
+        handle.stop()
+
+
+def _changed_pixels(a: np.ndarray, b: np.ndarray) -> float:
+    return float((np.abs(a - b).sum(axis=2) > 60).mean())
+
+
+def test_live_policy_runs_from_the_gui(page: Page, tmp_path):
+    pytest.importorskip("torch", reason="--policy needs the `rl` extra (torch)")
+    from tests.test_preview_live import debug_policy
+    from tests.test_sim_common import sim_dataset
+
+    handle = serve(
+        str(sim_dataset()),
+        console=Console(file=io.StringIO()),
+        policy=debug_policy(),
+        record=tmp_path / "rec",
+    )
+    try:
+        page.goto(handle.url)
+        page.wait_for_selector("canvas", timeout=60_000)
+        _wait_for(lambda: len(handle.server.get_clients()) >= 1, 30, "the websocket client")
+        before_png, before = _settled(page, 90, "the module to render")
+        (tmp_path / "live_before.png").write_bytes(before_png)
+        clock = page.get_by_text(re.compile(r"t = \d+\.\d\d s \(step \d+ / 500\)"))
+        page.get_by_role("button", name="▶ run", exact=True).click()
+        _wait_for(lambda: handle.app.live.running, 30, "the run to start")
+        clock.wait_for(timeout=30_000)
+        first = clock.inner_text()
+        _wait_for(lambda: clock.inner_text() != first, 10, "the time shown to advance")
+        assert page.get_by_text(re.compile(r"success: (no|yes)")).is_visible()
+        # The peg leaves the hole for its spawn and moves on: the picture changes.
+        png, px = _shot_until(
+            page, lambda px: _changed_pixels(px, before) > 0.001, 30, "the peg to move"
+        )
+        (tmp_path / "live_running.png").write_bytes(png)
+        _shot_until(page, lambda p: _changed_pixels(p, px) > 0.0002, 15, "the peg to move on")
+        handle.app.live_pause()
+        assert handle.app.live.frame.step > 0
     finally:
         handle.stop()
 
