@@ -75,6 +75,10 @@ class SACConfig:
     bc_decay_steps: int = 1_000_000
     """With a teacher only: env steps (summed over envs) over which the BC weight falls
     linearly to zero."""
+    bc_filter: bool = False
+    """With a teacher only: the BC term applies only to samples where the critics value the
+    teacher's action above the policy's mean action (the Q filter of Nair et al. 2018), so
+    a policy that found something better than a slow teacher is not pulled back."""
     teacher_noise: float = 0.05
     """With a teacher only: standard deviation of the Gaussian noise added to its actions
     during the warm-up (clipped to [-1, 1]), so the demonstrations cover more than its one
@@ -114,6 +118,21 @@ def soft_target(
     y = r + gamma (1 - terminated) (min(Q1'(s', a'), Q2'(s', a')) - alpha log pi(a' | s'))."""
     soft_v = torch.min(next_q1, next_q2) - alpha * next_logp
     return reward + gamma * (1.0 - terminated) * soft_v
+
+
+@torch.no_grad()
+def q_filter(
+    q1: torch.nn.Module,
+    q2: torch.nn.Module,
+    obs: torch.Tensor,
+    teacher_action: torch.Tensor,
+    action: torch.Tensor,
+) -> torch.Tensor:
+    """(B,) 1.0 where min(Q1, Q2) rates the teacher's action strictly above `action`, else
+    0.0: the samples a Q-filtered BC term imitates."""
+    q_t = torch.min(q1(obs, teacher_action), q2(obs, teacher_action))
+    q_a = torch.min(q1(obs, action), q2(obs, action))
+    return (q_t > q_a).float()
 
 
 class ReplayBuffer:
@@ -194,6 +213,7 @@ class SAC:
         "buffer_size",
         "bc_loss",
         "bc_weight",
+        "bc_kept",
     )
     """What `update` reports (the runner's log columns)."""
 
@@ -354,7 +374,14 @@ class SAC:
             # TD3+BC's scaling: the BC term weighs bc_w relative to the typical |Q|, and it
             # pulls the deterministic action (the one evaluated) towards the teacher's
             mean_action, _ = self.actor(b["obs"], True)
-            bc_loss = (mean_action - b["teacher_action"]).pow(2).sum(-1).mean()
+            sq = (mean_action - b["teacher_action"]).pow(2).sum(-1)
+            if cfg.bc_filter:
+                # Q filter (Nair et al. 2018): imitate only where the critics rate the
+                # teacher's action above the policy's, so RL may leave a slower teacher
+                keep = q_filter(self.q1, self.q2, b["obs"], b["teacher_action"], mean_action)
+                self._sums["bc_kept"] = self._sums.get("bc_kept", 0.0) + keep.mean()
+                sq = sq * keep
+            bc_loss = sq.mean()
             pi_loss = pi_loss + bc_w * q.abs().mean().detach() * bc_loss
         check_finite("SAC actor", pi_loss, log_pi=logp.mean(), q=q.mean())
         self.actor_opt.zero_grad(set_to_none=True)

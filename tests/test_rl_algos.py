@@ -12,7 +12,7 @@ from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor
 from rl.ppo import PPO, PPOConfig, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
-from rl.sac import SAC, SACConfig, soft_target
+from rl.sac import SAC, SACConfig, q_filter, soft_target
 from tests.toy_env import ToyEnv
 
 torch.set_num_threads(1)
@@ -153,3 +153,30 @@ def test_random_agent_is_seeded() -> None:
     a, b = RandomAgent(2, seed=4)(obs), RandomAgent(2, seed=4)(obs)
     np.testing.assert_array_equal(a, b)
     assert a.shape == (5, 2) and np.abs(a).max() <= 1
+
+
+def test_q_filter_keeps_samples_where_the_teacher_is_rated_higher() -> None:
+    """Critics Q(s, a) = -|a - s| (the best action is the observation): the filter keeps a
+    sample only where the teacher's action is nearer the best than the policy's; with two
+    critics the lower one decides."""
+
+    class Critic(torch.nn.Module):
+        def __init__(self, shift: float) -> None:
+            super().__init__()
+            self.shift = shift
+
+        def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+            return -(action - obs).abs().sum(-1) + self.shift * action.sum(-1)
+
+    obs = torch.tensor([[0.0], [0.0], [0.5], [0.5]])
+    teacher = torch.tensor([[0.1], [0.9], [0.5], [0.0]])
+    policy = torch.tensor([[0.5], [0.2], [0.0], [0.5]])
+    keep = q_filter(Critic(0.0), Critic(0.0), obs, teacher, policy)
+    assert keep.tolist() == [1.0, 0.0, 1.0, 0.0]
+    # equal ratings are not kept: nothing to learn from the teacher there
+    assert q_filter(Critic(0.0), Critic(0.0), obs, policy, policy).sum() == 0
+    # the lower critic decides: Q2 = Q1 + a is above Q1 for these actions (all >= 0), so
+    # min(Q1, Q2) = Q1 and nothing changes; Q2 = Q1 - 2 a is below, and favours small
+    # actions: sample 2 (teacher 0.5 against 0.0) leaves, sample 3 (0.0 against 0.5) joins
+    assert q_filter(Critic(0.0), Critic(1.0), obs, teacher, policy).tolist() == keep.tolist()
+    assert q_filter(Critic(0.0), Critic(-2.0), obs, teacher, policy).tolist() == [1, 0, 0, 1]
