@@ -346,7 +346,9 @@ def markdown_table(summary: dict[str, Any]) -> str:
     return "\n".join(lines) + (
         "\n\nSuccess: mean ± std over seeds (one evaluation file each; no ± for one file), "
         "n = episodes pooled. Median time to success pooled over the seeds' successful "
-        "episodes. Paper: Orsula et al. 2024, Table III (10 attempts per module).\n"
+        "episodes. Trained policies act with their mean action (the paper's protocol) unless "
+        f"the row says{SAMPLED}. Paper: Orsula et al. 2024, Table III (10 attempts per "
+        "module).\n"
     )
 
 

@@ -1,0 +1,62 @@
+"""The policies shipped in checkpoints/: each loads, acts and evaluates, and the README's table
+of shipped policies is what `assetgen report` computes from their evaluation files."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rl.report import TABLE_BEGIN as BEGIN
+from rl.report import TABLE_END as END
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = sorted(p.parent for p in (ROOT / "checkpoints").glob("*/checkpoint.safetensors"))
+
+
+def test_something_is_shipped() -> None:
+    assert SHIPPED, "checkpoints/ holds no policy"
+
+
+@pytest.mark.parametrize("folder", SHIPPED, ids=[p.name for p in SHIPPED])
+def test_shipped_policy_evaluates(folder: Path, tmp_path: Path) -> None:
+    import torch
+
+    from cli import main
+    from rl.runner import load_agent
+    from tests.test_sim_common import sim_dataset
+
+    torch.set_num_threads(1)
+    agent, meta = load_agent(folder, "cpu")
+    obs = np.zeros((3, meta["obs_dim"]), np.float32)
+    act = agent.policy(obs)
+    assert act.shape == (3, meta["act_dim"]) and np.isfinite(act).all()
+    out = tmp_path / "eval.json"
+    argv = ["eval", "--checkpoint", str(folder), "--dataset", str(sim_dataset()),
+            "--attempts", "1", "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    res = json.loads(out.read_text())
+    assert res["episodes"] == 4 and res["policy"] == "deterministic"
+    # the shipped evaluation files are of the real splits, under the paper's protocol
+    evals = sorted(folder.glob("eval_*.json"))
+    assert evals, f"{folder} has no evaluation file"
+    for f in evals:
+        doc = json.loads(f.read_text())
+        assert doc["attempts"] == 10 and doc["episodes"] == 10 * 1024, f
+        assert doc["noise_scale"] == 1.0 and doc["control_dt"] == 0.02, f
+
+
+def test_readme_table_is_generated_from_the_shipped_files() -> None:
+    from rl.report import load_run, markdown_table, summarise
+
+    text = (ROOT / "README.md").read_text()
+    m = re.search(re.escape(BEGIN) + r"\n(.*?)" + re.escape(END), text, re.S)
+    assert m, "README.md lacks the shipped-policies table markers"
+    table = markdown_table(summarise([load_run(p) for p in SHIPPED], []))
+    assert m.group(1).strip() == table.strip(), (
+        "README's shipped table is stale: regenerate it with "
+        "`assetgen report checkpoints/* --out report/shipped --readme README.md`"
+    )
