@@ -256,7 +256,8 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
 
     run = getattr(args, "run", None)
     stochastic = bool(getattr(args, "stochastic", False))
-    noise_scale = float(getattr(args, "noise_scale", 1.0) or 1.0)
+    noise_scale = getattr(args, "noise_scale", None)
+    noise_scale = 1.0 if noise_scale is None else float(noise_scale)  # 0 is a valid scale
     record = getattr(args, "record", None)
     try:
         if args.episodes < 1:
@@ -266,6 +267,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             import torch
 
             from rl.checkpoint import CheckpointError
+            from rl.report import variant_name
             from rl.runner import load_agent, reset_hook
             from rl.stack import StackObs
 
@@ -296,7 +298,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 "run": str(run),
                 "policy": "stochastic" if stochastic else "deterministic",
             }
-            name = f"{meta['algo']}{'-STACK' if meta['stack'] > 1 else ''} ({run})"
+            name = f"{variant_name(meta['algo'], meta['stack'], meta.get('demos'))} ({run})"
         else:
             if args.agent not in hooks.agents:
                 raise ValueError(

@@ -60,6 +60,13 @@ def test_random_agent_does_not_insert(capsys) -> None:
     assert math.isnan(res["median_time_to_success_s"])
 
 
+def test_noise_scale_zero_is_kept(capsys) -> None:
+    argv = ["eval", "--agent", "scripted", "--dataset", str(sim_dataset()), "--attempts", "1",
+            "--noise-scale", "0", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["noise_scale"] == 0.0
+
+
 def test_eval_refuses_bad_input(capsys) -> None:
     d = str(sim_dataset())
     assert main(["eval", "--dataset", d]) == 2
