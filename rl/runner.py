@@ -348,6 +348,16 @@ def load_agent(
     if path.is_dir():
         path = path / CHECKPOINT
     tensors, doc = ckpt.load(path)
+    return _agent_from(tensors, doc, path, device), doc["run"]
+
+
+def _agent_from(
+    tensors: dict[str, torch.Tensor],
+    doc: dict[str, Any],
+    path: Path,
+    device: str | torch.device | None,
+) -> Agent:
+    """The agent a loaded checkpoint (tensors, JSON document) describes, with its weights."""
     meta = doc["run"]
     if meta["algo"] not in ALGOS:
         raise ckpt.CheckpointError(f"{path}: unknown algorithm {meta['algo']!r}")
@@ -364,7 +374,7 @@ def load_agent(
     if doc.get("policy_only"):  # an exported policy: the networks, no optimisers
         modules = {k: m for k, m in modules.items() if isinstance(m, torch.nn.Module)}
     ckpt.load_modules(modules, doc["agent"], tensors)
-    return agent, meta
+    return agent
 
 
 RUN_FILES = ("config.json", "metrics.csv")
@@ -384,16 +394,13 @@ def export_policy(run: str | Path, out_dir: str | Path) -> dict[str, Any]:
     tensors, doc = ckpt.load(src)
     if doc.get("policy_only"):
         raise ckpt.CheckpointError(f"{src} is already an exported policy")
-    agent_doc = {}
-    for name, tree in doc["agent"].items():
-        if not _is_optimizer_state(tree):
-            agent_doc[name] = tree
+    agent = _agent_from(tensors, doc, src, "cpu")
     keep: dict[str, torch.Tensor] = {}
-    _collect(agent_doc, tensors, keep)
+    nets = {k: m for k, m in agent.modules().items() if isinstance(m, torch.nn.Module)}
     out_doc = {
         "run": doc["run"],
         "counters": doc["counters"],
-        "agent": agent_doc,
+        "agent": ckpt.pack_modules(nets, "agent", keep),
         "policy_only": True,
         "versions": doc.get("versions", {}),
     }
@@ -410,23 +417,6 @@ def export_policy(run: str | Path, out_dir: str | Path) -> dict[str, Any]:
             shutil.copy2(f, tmp / f.name)
     os.replace(tmp, out_dir)
     return {"files": {f.name: f.stat().st_size for f in sorted(out_dir.iterdir())}}
-
-
-def _is_optimizer_state(tree: Any) -> bool:
-    return isinstance(tree, dict) and "param_groups" in tree and "state" in tree
-
-
-def _collect(tree: Any, tensors: dict[str, torch.Tensor], out: dict[str, torch.Tensor]) -> None:
-    """Copy into `out` every tensor that the packed `tree` refers to."""
-    if isinstance(tree, dict):
-        if "__tensor__" in tree:
-            out[tree["__tensor__"]] = tensors[tree["__tensor__"]]
-            return
-        for v in tree.values():
-            _collect(v, tensors, out)
-    elif isinstance(tree, list):
-        for v in tree:
-            _collect(v, tensors, out)
 
 
 # ----------------------------------------------------------------------------- train
