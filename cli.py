@@ -202,7 +202,7 @@ def _eval_hooks():
 
     from rl.commands import EvalHooks
     from sim import make_eval_env
-    from sim.expert import expert_action
+    from sim.expert import expert_action, fast_expert_action
     from sim.recording import EpisodeRecorder, env_labels
 
     def random_agent(seed: int):
@@ -211,10 +211,18 @@ def _eval_hooks():
 
     return EvalHooks(
         make_env=make_eval_env,
-        agents={"scripted": lambda seed: expert_action, "random": random_agent},
+        agents={
+            "scripted": lambda seed: expert_action,
+            "scripted-fast": lambda seed: fast_expert_action,
+            "random": random_agent,
+        },
         labels=env_labels,
         recorder=EpisodeRecorder,
-        policies={"scripted": "deterministic", "random": "stochastic"},
+        policies={
+            "scripted": "deterministic",
+            "scripted-fast": "deterministic",
+            "random": "stochastic",
+        },
     )
 
 
@@ -222,7 +230,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from rl.commands import eval_main
 
     if (args.agent is None) == (args.checkpoint is None):
-        return _err("give one of --agent scripted|random and --checkpoint RUN_DIR")
+        return _err("give one of --agent scripted|scripted-fast|random and --checkpoint RUN_DIR")
     args.run, args.episodes = args.checkpoint, args.attempts
     return eval_main(args, _eval_hooks())
 
@@ -321,7 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bench)
 
     e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
-    e.add_argument("--agent", choices=["scripted", "random"], help="a built-in agent")
+    e.add_argument(
+        "--agent", choices=["scripted", "scripted-fast", "random"], help="a built-in agent"
+    )
     e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
     e.add_argument(
         "--stochastic",
@@ -369,7 +379,13 @@ def _scripted_teacher():
     return expert_action
 
 
-TEACHERS = {"scripted": _scripted_teacher}
+def _fast_teacher():
+    from sim.expert import fast_expert_action
+
+    return fast_expert_action
+
+
+TEACHERS = {"scripted": _scripted_teacher, "scripted-fast": _fast_teacher}
 """`assetgen train --demos NAME`: the teachers an agent can learn from."""
 
 

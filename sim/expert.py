@@ -54,6 +54,30 @@ class ExpertConfig:
     """Velocity of action 1.0 (the task's scale), m/s."""
     max_ang_vel: float = np.radians(90.0)
     """Angular velocity of action 1.0, rad/s."""
+    descend_while_turning: bool = False
+    """While turning (phase 2), descend towards the safe height instead of holding the
+    height: every turn above it is still safe, and the descent overlaps the turn."""
+
+
+FAST = ExpertConfig(
+    pos_gain=10.0,
+    rot_gain=10.0,
+    turn_angle=np.radians(20.0),
+    insert_speed=0.25,
+    lateral_tol=0.003,
+    angle_tol=np.radians(5.7),
+    descend_while_turning=True,
+)
+"""The fast expert (`--agent scripted-fast`, `--demos scripted-fast`): the same phases and
+the same safe height, with stiffer gains, a descent that overlaps the turn, looser
+alignment tolerances (the hole's walls guide the rest) and insertion at the full speed of
+the action scale. Chosen on the train split only (one attempt per module): 100 % success,
+median 2.30 s against the default's 3.48 s."""
+
+
+def fast_expert_action(obs: np.ndarray) -> np.ndarray:
+    """expert_action with the FAST gains."""
+    return expert_action(obs, FAST)
 
 
 def _split(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -109,7 +133,8 @@ def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.nda
     v_rise[:, 2] = cfg.pos_gain * (cfg.safe_height + 0.01 - height)
     v = np.where(rise[:, None], v_rise, v)
     # the lateral move at height is safe; no descent while turning
-    v[:, 2] = np.where(turning & ~rise, np.maximum(v[:, 2], 0.0), v[:, 2])
+    floor = cfg.pos_gain * (cfg.safe_height - height) if cfg.descend_while_turning else 0.0
+    v[:, 2] = np.where(turning & ~rise, np.maximum(v[:, 2], floor), v[:, 2])
     omega = np.where((rise & (height < cfg.safe_height - 0.01))[:, None], 0.0, omega)
 
     v = _clip_norm(v, cfg.max_lin_vel)

@@ -76,3 +76,34 @@ def test_eval_refuses_bad_input(capsys) -> None:
     assert "--noise-scale -1" in capsys.readouterr().err
     assert main(["eval", "--agent", "scripted", "--dataset", d, "--stochastic"]) == 2
     assert "--checkpoint" in capsys.readouterr().err
+
+
+def test_fast_expert_descends_while_turning_only_above_the_safe_height() -> None:
+    from assetgen.core.rotations import matrix_to_rotvec
+    from sim.expert import FAST, _split, fast_expert_action
+
+    env = make_eval_env(str(sim_dataset()), None, 0)
+    obs = np.concatenate([env.reset(seed=s) for s in range(8)])
+    t_ep, r_ep, _, r_bp = _split(obs.astype(np.float64))
+    r_eb = r_ep @ np.swapaxes(r_bp, 1, 2)
+    angle = np.linalg.norm(matrix_to_rotvec(r_eb @ np.swapaxes(r_ep, 1, 2)), axis=1)
+    turning_high = (angle > FAST.turn_angle) & (t_ep[:, 2] > FAST.safe_height + 0.01)
+    assert turning_high.sum() >= 4  # spawns are 15-25 cm up with any orientation
+    slow, fast = expert_action(obs)[turning_high, 2], fast_expert_action(obs)[turning_high, 2]
+    assert (slow >= 0).all() and (fast < 0).all()
+    # below the safe height a turning peg rises with either gains
+    low = obs.copy()
+    low[:, 2] = FAST.safe_height - 0.05
+    assert (fast_expert_action(low)[turning_high, 2] > 0).all()
+
+
+def test_fast_expert_is_faster_on_the_same_spawns() -> None:
+    from sim.expert import fast_expert_action
+
+    runs = {}
+    for name, policy in (("default", expert_action), ("fast", fast_expert_action)):
+        env = make_eval_env(str(sim_dataset()), None, 0)
+        runs[name] = evaluate(policy, env, 4, seed=3)
+    assert runs["fast"]["success_rate"] >= 0.9
+    slow, fast = (runs[k]["median_time_to_success_s"] for k in ("default", "fast"))
+    assert fast < 0.85 * slow, (fast, slow)
