@@ -140,8 +140,8 @@ def add_train_parser(
     )
     p.add_argument(
         "--demos",
-        help="learn from a teacher (sac): it plays the warm-up and its actions label every "
-        "stored observation for a decaying behaviour-cloning term; one of "
+        help="learn from a teacher: it plays the warm-up (sac, dreamer) and, for sac, its "
+        "actions label every stored observation for a behaviour-cloning term; one of "
         f"{sorted(teachers or {})}",
     )
     p.add_argument(

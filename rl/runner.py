@@ -481,7 +481,9 @@ def train(
     agent = build_agent(algo, env.obs_dim, env.act_dim, n, config, device, seed)
     if teacher is not None:
         if not hasattr(agent, "set_teacher"):
-            raise ValueError(f"demonstrations (a teacher) are supported by sac, not by {algo}")
+            raise ValueError(
+                f"demonstrations (a teacher) are supported by sac and dreamer, not by {algo}"
+            )
         # stacked observations hold the newest first: the teacher sees that one
         agent.set_teacher(lambda o: teacher(np.asarray(o)[:, :base_dim]))
     stats = EpisodeStats(max(100, n))

@@ -184,6 +184,26 @@ def test_recurrent_state_resets_where_episodes_end() -> None:
     assert agent.state.deter.shape == (5, TINY.deter)
 
 
+def test_reward_scale_multiplies_the_stored_rewards() -> None:
+    from dataclasses import replace
+
+    stored = []
+    for scale in (1.0, 100.0):
+        torch.manual_seed(0)
+        agent = Dreamer(4, 2, 3, replace(TINY, reward_scale=scale))
+        env = ToyEnv(3)
+        obs = env.reset(seed=0)
+        agent.act(obs)
+        obs, r, term, trunc, info = env.step(np.full((3, 2), 0.5))
+        agent.process_step(obs, r, term, trunc, info)
+        rep = agent.replay
+        stored.append(np.array([rep.data["reward"][i, rep.pos[i] - 1] for i in range(3)]))
+        assert np.allclose(stored[-1], np.asarray(r) * scale)
+    assert np.abs(stored[0]).sum() > 0
+    with pytest.raises(ValueError, match="reward_scale"):
+        replace(TINY, reward_scale=0.0).validate()
+
+
 def test_replay_sequences_and_memory_check() -> None:
     rep = SequenceReplay(capacity=20, num_envs=2, obs_dim=1, act_dim=1)
     for t in range(13):  # env 0 wraps its ring of 10

@@ -421,3 +421,38 @@ def test_sac_learns_from_the_scripted_teacher(tmp_path: Path) -> None:
     assert any(r["bc_loss"] not in ("", "nan") for r in rows)
     assert main([*base, "--out", str(tmp_path / "r2"), "--demos", "nope"]) == 2
     assert main([*base, "--out", str(tmp_path / "r3"), "--set", "bc_wt=1"]) == 2
+
+
+def test_dreamer_warm_up_is_played_by_the_teacher(tmp_path: Path) -> None:
+    """`train --algo dreamer --demos scripted-fast`: the fast expert plays the warm-up, so
+    its episodes succeed and their rewards are in the replay; PPO has no teacher."""
+    import torch
+
+    from cli import main
+    from rl import checkpoint as ckpt
+
+    torch.set_num_threads(1)
+    data, run = str(sim_dataset()), tmp_path / "run"
+    base = ["train", "--preset", "debug", "--dataset", data, "--envs", "4", "--steps", "1024",
+            "--no-progress"]  # fmt: skip
+    argv = [*base, "--algo", "dreamer", "--out", str(run), "--demos", "scripted-fast",
+            "--set", "warmup_steps=1024", "--set", "teacher_noise=0"]  # fmt: skip
+    assert main(argv) == 0
+    assert json.loads((run / "config.json").read_text())["demos"] == "scripted-fast"
+    rows = list(csv.DictReader(open(run / "metrics.csv")))
+    done = [r for r in rows if r["success_rate"] not in ("", "nan")]
+    assert done and float(done[-1]["success_rate"]) >= 0.9
+    tensors, doc = ckpt.load(run / "checkpoint.safetensors")
+    replay = ckpt.unpack(doc["agent_extra"]["tensors"], tensors)
+    rewards = np.concatenate([np.asarray(v).ravel() for k, v in _leaves(replay) if "reward" in k])
+    assert rewards.sum() > 4  # several episodes' worth of progress reward (1 per success)
+    ppo = [*base, "--algo", "ppo", "--out", str(tmp_path / "ppo"), "--demos", "scripted"]
+    assert main(ppo) == 2
+
+
+def _leaves(tree, prefix=""):
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            yield from _leaves(v, f"{prefix}/{k}")
+    else:
+        yield prefix, tree

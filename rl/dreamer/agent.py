@@ -12,10 +12,16 @@ from its posterior states. `update(last_obs)` only reports the mean metrics.
 `reset(mask)` starts new episodes where mask (N,) is True: the runner calls it after it
 resets the env, rl/evaluate.py after each step, so a recurrent policy never carries one
 episode's state into the next.
+
+With a teacher (`set_teacher`, e.g. `assetgen train --algo dreamer --demos scripted-fast`)
+the warm-up is played by the teacher instead of uniform actions, so the replay (which keeps
+them: uniform sampling over everything stored) starts with successful episodes that the
+world model learns the task's rewards from.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -79,9 +85,17 @@ class Dreamer:
         self.env_steps = 0  # summed over envs
         self.grad_steps = 0
         self._credit = 0.0  # gradient steps owed
+        self.teacher: Callable[[np.ndarray], np.ndarray] | None = None
         self._sums: dict[str, torch.Tensor] = {}
         self._n_sums = 0
         self._init_state(num_envs)
+
+    def set_teacher(self, teacher: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Let `teacher` (obs (N, obs_dim) -> actions (N, act_dim) in [-1, 1]) play the
+        warm-up, with Gaussian noise of std `teacher_noise`. Call before the first step."""
+        if self.env_steps:
+            raise RuntimeError("set_teacher must be called before the first step")
+        self.teacher = teacher
 
     def _t(self, a: np.ndarray) -> torch.Tensor:
         return torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device)
@@ -143,7 +157,10 @@ class Dreamer:
                             reward=np.zeros(k, np.float32), is_first=np.ones(k, bool),
                             is_terminal=np.zeros(k, bool))  # fmt: skip
         feat = self._observe(obs)
-        if self.env_steps < self.cfg.warmup_steps:
+        if self.env_steps < self.cfg.warmup_steps and self.teacher is not None:
+            a = self._t(self.teacher(np.asarray(obs)))
+            a = (a + self.cfg.teacher_noise * torch.randn_like(a)).clamp(-1.0, 1.0)
+        elif self.env_steps < self.cfg.warmup_steps:
             a = torch.rand(len(obs), self.act_dim, device=self.device) * 2.0 - 1.0
         else:
             a = self.ac.actor(feat).rsample().clamp(-1.0, 1.0)
@@ -176,7 +193,8 @@ class Dreamer:
         n = len(done)
         obs = np.where(done[:, None], info["final_obs"], next_obs) if done.any() else next_obs
         self.replay.add(np.arange(n), obs=obs, prev_action=self.prev_action.cpu().numpy(),
-                        reward=np.asarray(reward, np.float32), is_first=np.zeros(n, bool),
+                        reward=np.asarray(reward, np.float32) * np.float32(self.cfg.reward_scale),
+                        is_first=np.zeros(n, bool),
                         is_terminal=terminated)  # fmt: skip
         self.env_steps += n
         self.reset(done)

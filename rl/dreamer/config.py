@@ -69,6 +69,13 @@ class DreamerConfig:
     """Smallest standard deviation of the bounded normal policy."""
     max_std: float = 1.0
     """Largest standard deviation of the bounded normal policy."""
+    reward_scale: float = 1.0
+    """Env rewards are multiplied by this before they enter the replay (1: the official
+    algorithm). The return normaliser divides advantages by max(1, P95 - P5): on a task
+    whose episode returns are at most 1 (peg-in-hole) that floor keeps the advantages far
+    below the entropy bonus, and the policy's spread grows to its maximum instead of
+    learning (measured: see docs/benchmarks.md). A scale lifts the returns' range above
+    the floor without changing what is optimal."""
     slow_critic_decay: float = 0.98
     """EMA decay of the slow target critic (the official `slow_critic_fraction: 0.02`)."""
     slowreg: float = 1.0
@@ -97,6 +104,8 @@ class DreamerConfig:
     until about half full; the cpu preset's (~100 MiB) always."""
     warmup_steps: int = 500_000
     """Env steps (summed over envs) taken with uniform random actions before training."""
+    teacher_noise: float = 0.05
+    """With a teacher (`--demos`) only: std of the Gaussian noise on its warm-up actions."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
 
@@ -113,6 +122,8 @@ class DreamerConfig:
             "0 < min_std <= max_std": 0 < self.min_std <= self.max_std,
             "batch_size, batch_length >= 1": min(self.batch_size, self.batch_length) >= 1,
             "train_ratio >= 0": self.train_ratio >= 0,
+            "reward_scale > 0": self.reward_scale > 0,
+            "teacher_noise >= 0": self.teacher_noise >= 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
         }
         bad = [k for k, ok in checks.items() if not ok]
