@@ -367,10 +367,16 @@ def build_parser() -> argparse.ArgumentParser:
     from rl.commands import add_export_parser, add_report_parser, add_train_parser
     from sim import make_train_env
 
-    add_train_parser(sub, make_train_env, TEACHERS)
+    add_train_parser(sub, make_train_env, TEACHERS, _probe_env)
     add_report_parser(sub)
     add_export_parser(sub)
     return p
+
+
+def _probe_env(dataset: str, modules: int):
+    from sim import make_eval_env
+
+    return make_eval_env(dataset, None, 0, modules=modules)
 
 
 def _scripted_teacher():

@@ -93,9 +93,11 @@ def add_train_parser(
     subparsers: argparse._SubParsersAction,
     make_env: MakeEnv,
     teachers: dict[str, Callable[[], Teacher]] | None = None,
+    make_probe_env: Callable[[str, int], Any] | None = None,
 ) -> argparse.ArgumentParser:
     """Register `train` on an argparse subparsers object; `teachers` maps the names that
-    --demos accepts to functions that build the policy."""
+    --demos accepts to functions that build the policy; `make_probe_env(dataset, k)` makes
+    the evaluation env of the dataset's first k modules for --probe-steps."""
     from rl.names import ALGO_NAMES, PRESET_NAMES
 
     p = subparsers.add_parser(
@@ -152,14 +154,33 @@ def add_train_parser(
         help="replace a field of the preset's config (repeatable; e.g. --set bc_weight=0 for "
         "an ablation); the fields are the algorithm's config dataclass (rl/)",
     )
+    p.add_argument(
+        "--probe-steps",
+        type=int,
+        help="every this many env steps, run the frozen deterministic policy on fixed episodes "
+        "of the training set and log probe_* columns (the training columns describe a policy "
+        "that changes at every gradient step; default: no probe)",
+    )
+    p.add_argument(
+        "--probe-modules",
+        type=int,
+        default=64,
+        help="modules of the training set the probe plays, the first ones (default 64)",
+    )
+    p.add_argument(
+        "--probe-attempts", type=int, default=2, help="probe episodes per module (default 2)"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
-    p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}))
+    p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}, make_probe_env))
     return p
 
 
 def train_main(
-    args: argparse.Namespace, make_env: MakeEnv, teachers: dict[str, Callable[[], Teacher]]
+    args: argparse.Namespace,
+    make_env: MakeEnv,
+    teachers: dict[str, Callable[[], Teacher]],
+    make_probe_env: Callable[[str, int], Any] | None = None,
 ) -> int:
     """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
     import os
@@ -194,6 +215,18 @@ def train_main(
                 )
             teacher = teachers[demos]()
         overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
+        probe, probe_steps = None, getattr(args, "probe_steps", None)
+        if probe_steps is not None:
+            from rl.probe import make_probe
+
+            if probe_steps < 1:
+                raise ValueError(f"--probe-steps {probe_steps}: give a positive number of steps")
+            if make_probe_env is None:
+                raise ValueError("--probe-steps: this env offers no evaluation env to probe")
+            if args.probe_modules < 1:
+                raise ValueError(f"--probe-modules {args.probe_modules}: give at least 1")
+            probe_env = make_probe_env(args.dataset, args.probe_modules)
+            probe = make_probe(probe_env, args.probe_attempts, args.stack)
         env = make_env(
             args.dataset, args.envs or setup.num_envs, args.seed, curriculum_steps=curriculum
         )
@@ -213,6 +246,8 @@ def train_main(
             teacher=teacher,
             demos=demos,
             overrides=overrides,
+            probe=probe,
+            probe_steps=probe_steps,
         )
     except (ValueError, CheckpointError) as e:
         return _error(str(e))

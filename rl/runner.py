@@ -74,6 +74,9 @@ BASE_COLUMNS = (
     "time_to_success_median",
 )
 
+PROBE_COLUMNS = ("probe_success_rate", "probe_time_to_success_median", "probe_truncation_rate")
+"""Columns of the frozen-policy probe (`train --probe-steps`), empty in other rows."""
+
 console = Console(stderr=True, highlight=False)
 
 
@@ -440,6 +443,8 @@ def train(
     teacher: Callable[[np.ndarray], np.ndarray] | None = None,
     demos: str | None = None,
     overrides: dict[str, Any] | None = None,
+    probe: Callable[[Any], dict[str, float]] | None = None,
+    probe_steps: int | None = None,
 ) -> dict[str, Any]:
     """Train `algo` ("ppo", "sac", "dreamer", "random") on `env` (the rl/vec_env.py contract).
 
@@ -451,8 +456,12 @@ def train(
     the run and checked on resume. teacher: a policy of the env's unstacked observations
     (e.g. the scripted expert) that an agent with `set_teacher` (SAC) learns from, named
     `demos` in the run's metadata. overrides: config fields replaced in the preset's config
-    (ablations: {"bc_weight": 0.0}). Returns {"status": "done" | "nan" | "interrupted",
-    "iterations", "env_steps", "seconds", "episodes", "checkpoint", "metrics" (the last row)}.
+    (ablations: {"bc_weight": 0.0}). probe: agent -> {"probe_success_rate", ...}, run
+    every `probe_steps` env steps (rounded to iterations) and logged with that row: the
+    frozen deterministic policy on fixed episodes (rl/probe.py), because the training
+    columns describe a policy that changes at every gradient step. Returns {"status":
+    "done" | "nan" | "interrupted", "iterations", "env_steps", "seconds", "episodes",
+    "checkpoint", "metrics" (the last row)}.
     """
     setup = get_setup(preset, algo) if isinstance(preset, str) else preset
     config = replace(setup.config, **(overrides or {}))
@@ -472,6 +481,8 @@ def train(
         "demos": demos if teacher is not None else None,
         "overrides": overrides or {},
     }
+    if probe is not None:  # it draws from the global RNGs: a resume must probe alike
+        meta["probe_steps"] = probe_steps
     n = env.num_envs
 
     # seeding before the networks are built makes their initialisation reproducible
@@ -528,9 +539,11 @@ def train(
     spi = agent.steps_per_iteration
     per_iter = n * spi
     ckpt_every = max(1, math.ceil(setup.checkpoint_steps / per_iter))
-    log = MetricsLog(
-        out_dir, BASE_COLUMNS + tuple(agent.log_keys), iteration if resume else None, tensorboard
-    )
+    if probe is not None and (probe_steps is None or probe_steps < 1):
+        raise ValueError(f"probe_steps = {probe_steps}: give a positive number of env steps")
+    probe_every = math.ceil(probe_steps / per_iter) if probe is not None and probe_steps else 0
+    columns = BASE_COLUMNS + tuple(agent.log_keys) + (PROBE_COLUMNS if probe else ())
+    log = MetricsLog(out_dir, columns, iteration if resume else None, tensorboard)
     bar = _Progress(progress, steps, env_steps)
     t_start = time.perf_counter()
     status, row = "done", {}
@@ -569,6 +582,9 @@ def train(
                 **stats.summary(),
                 **losses,
             }
+            if probe_every and iteration % probe_every == 0:
+                # before the checkpoint: its RNG state is then the one a resume continues from
+                row |= probe(agent)
             log.write(row)
             bar.update(per_iter, row)
             if iteration % ckpt_every == 0:

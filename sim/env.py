@@ -428,21 +428,31 @@ def make_train_env(
 
 
 def make_eval_env(
-    dataset: str, num_envs: int | None, seed: int, noise_scale: float = 1.0
+    dataset: str,
+    num_envs: int | None,
+    seed: int,
+    noise_scale: float = 1.0,
+    modules: int | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
     envs than modules would leave modules out (ValueError), more would repeat some.
     noise_scale multiplies the four noise standard deviations (robustness: 2 = twice the
     paper's). The env's `protocol` dict names the dataset (folder and content hash), the
-    control period and the noise scale, for the evaluation file."""
+    control period and the noise scale, for the evaluation file. modules: the dataset's
+    first `modules` modules only (a training run's probe; the protocol uses all)."""
     from assetgen.dataset.reader import Dataset, content_hash
     from sim.config import EVAL_CONFIG
 
     if not (math.isfinite(noise_scale) and noise_scale >= 0):
         raise ValueError(f"--noise-scale {noise_scale}: give a factor >= 0 (1: the paper's noise)")
     root = _dataset_root(dataset)
-    modules = load_dataset(root)
+    ids = None
+    if modules is not None:
+        if modules < 1:
+            raise ValueError(f"modules = {modules}: evaluate at least 1 module")
+        ids = Dataset(root).ids[:modules]
+    modules = load_dataset(root, ids)
     if num_envs is not None and num_envs < len(modules):
         raise ValueError(
             f"--envs {num_envs} is less than the dataset's {len(modules)} modules: a "

@@ -456,3 +456,32 @@ def _leaves(tree, prefix=""):
             yield from _leaves(v, f"{prefix}/{k}")
     else:
         yield prefix, tree
+
+
+def test_train_probe_on_the_first_modules(tmp_path: Path) -> None:
+    """`train --probe-steps`: the frozen policy on the training set's first modules, logged
+    in probe_* columns; bad probe settings are refused by name."""
+    import torch
+
+    from cli import main
+
+    torch.set_num_threads(1)
+    data, run = str(sim_dataset()), tmp_path / "run"
+    base = ["train", "--algo", "sac", "--preset", "debug", "--dataset", data, "--envs", "4",
+            "--steps", "128", "--no-progress"]  # fmt: skip
+    argv = [*base, "--out", str(run), "--probe-steps", "64", "--probe-modules", "2",
+            "--probe-attempts", "1"]  # fmt: skip
+    assert main(argv) == 0
+    rows = list(csv.DictReader(open(run / "metrics.csv")))
+    probed = [r for r in rows if r["probe_success_rate"] != ""]
+    assert [int(r["env_steps"]) for r in probed] == [64, 128]
+    assert all(float(r["probe_truncation_rate"]) + float(r["probe_success_rate"]) <= 1.0
+               for r in probed)  # fmt: skip
+    assert json.loads((run / "config.json").read_text())["probe_steps"] == 64
+    from sim import make_eval_env
+
+    env = make_eval_env(data, None, 0, modules=2)
+    assert env.num_envs == 2 and env.module_ids == sorted(env.module_ids)
+    bad = [*base, "--out", str(tmp_path / "bad")]
+    assert main([*bad, "--probe-steps", "0"]) == 2
+    assert main([*bad, "--probe-steps", "64", "--probe-modules", "0"]) == 2

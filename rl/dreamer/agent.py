@@ -90,6 +90,19 @@ class Dreamer:
         self._n_sums = 0
         self._init_state(num_envs)
 
+    def acting_state(self) -> tuple[State, torch.Tensor, np.ndarray]:
+        """A copy of the per-env acting state (h, z, previous action, first flags), for
+        `load_acting_state` after another use of the policy (rl/probe.py)."""
+        st = self.state
+        return (
+            State(st.deter.clone(), st.stoch.clone()),
+            self.prev_action.clone(),
+            self.first.copy(),
+        )
+
+    def load_acting_state(self, saved: tuple[State, torch.Tensor, np.ndarray]) -> None:
+        self.state, self.prev_action, self.first = saved
+
     def set_teacher(self, teacher: Callable[[np.ndarray], np.ndarray]) -> None:
         """Let `teacher` (obs (N, obs_dim) -> actions (N, act_dim) in [-1, 1]) play the
         warm-up, with Gaussian noise of std `teacher_noise`. Call before the first step."""
