@@ -26,7 +26,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +86,10 @@ class Run:
     env_steps: np.ndarray
     success_rate: np.ndarray
     evals: tuple[EvalResult, ...]
+    probe_env_steps: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """(P,) env steps of the rows with a frozen-policy probe (`train --probe-steps`)."""
+    probe_success_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """(P,) the probe's success rate there."""
 
 
 @dataclass(frozen=True)
@@ -202,7 +206,7 @@ def load_eval(path: str | Path) -> EvalResult:
     )
 
 
-def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray]:
+def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
         cols = reader.fieldnames or []
@@ -213,7 +217,10 @@ def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray]:
         rows = list(reader)
     # an empty cell or "nan": no training episode had finished by that iteration
     rate = [float(r["success_rate"]) if r["success_rate"] else math.nan for r in rows]
-    return np.array([int(float(r["env_steps"])) for r in rows], dtype=np.int64), np.array(rate)
+    steps = np.array([int(float(r["env_steps"])) for r in rows], dtype=np.int64)
+    probed = [i for i, r in enumerate(rows) if r.get("probe_success_rate")]
+    probe = np.array([float(rows[i]["probe_success_rate"]) for i in probed])
+    return steps, np.array(rate), steps[probed], probe
 
 
 def load_run(path: str | Path) -> Run:
@@ -231,7 +238,7 @@ def load_run(path: str | Path) -> Run:
     variant = variant_name(
         meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), meta.get("overrides")
     )
-    steps, rate = _read_metrics(metrics)
+    steps, rate, probe_steps, probe_rate = _read_metrics(metrics)
     evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
     for e in evals:
         if e.variant.removesuffix(SAMPLED) != variant:
@@ -241,7 +248,7 @@ def load_run(path: str | Path) -> Run:
         raise ReportError(
             f"{path} has two evaluation files of one dataset and policy: keep one of each"
         )
-    return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals)
+    return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals, probe_steps, probe_rate)
 
 
 def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path]]:
@@ -266,11 +273,12 @@ def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path
     return results, skipped
 
 
-def learning_curve(runs: list[Run]) -> Curve:
-    """Mean ± std over `runs` (one variant) of the training success rate."""
-    ok = [
-        (r.env_steps[m], r.success_rate[m]) for r in runs if (m := ~np.isnan(r.success_rate)).any()
-    ]
+def learning_curve(runs: list[Run], probe: bool = False) -> Curve:
+    """Mean ± std over `runs` (one variant) of the training success rate, or (probe) of the
+    frozen-policy probe's success rate; runs without probe rows are left out of the latter."""
+    pairs = [(r.probe_env_steps, r.probe_success_rate) if probe else (r.env_steps, r.success_rate)
+             for r in runs]  # fmt: skip
+    ok = [(s[m], y[m]) for s, y in pairs if (m := ~np.isnan(y)).any()]
     if not ok:
         empty = np.zeros(0)
         return Curve(runs[0].variant, 0, empty.astype(np.int64), empty, empty)
@@ -299,6 +307,7 @@ def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
     for r in runs:
         by_variant.setdefault(r.variant, []).append(r)
     curves = {v: learning_curve(rs) for v, rs in by_variant.items()}
+    probes = {v: c for v, rs in by_variant.items() if (c := learning_curve(rs, probe=True)).runs}
     evals = [e for r in runs for e in r.evals] + list(baselines)
     groups: dict[tuple[str, str], list[EvalResult]] = {}
     for e in evals:
@@ -308,7 +317,13 @@ def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
         cells.setdefault(v, {})[s] = eval_cell(es)
     splits = list(SPLITS) + sorted({e.split for e in evals} - set(SPLITS))
     seeds = {v: sorted(r.seed for r in rs) for v, rs in by_variant.items()}
-    return {"curves": curves, "cells": cells, "seeds": seeds, "splits": splits}
+    return {
+        "curves": curves,
+        "probe_curves": probes,
+        "cells": cells,
+        "seeds": seeds,
+        "splits": splits,
+    }
 
 
 def _pct(cell: Cell | None) -> str:
@@ -369,7 +384,12 @@ def _figure() -> tuple[Any, Any]:
     return plt.subplots(figsize=(8, 5), dpi=100)
 
 
-def plot_learning_curves(curves: dict[str, Curve], path: Path) -> None:
+def plot_learning_curves(
+    curves: dict[str, Curve],
+    path: Path,
+    ylabel: str = "training success rate (%)",
+    title: str = "Learning curves (mean ± std over seeds)",
+) -> None:
     """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG."""
     import matplotlib.pyplot as plt
 
@@ -387,8 +407,8 @@ def plot_learning_curves(curves: dict[str, Curve], path: Path) -> None:
         )
     if not any(c.runs for c in curves.values()):
         ax.text(0.5, 0.5, "no finished training episodes", ha="center", transform=ax.transAxes)
-    ax.set(xlabel="environment steps", ylabel="training success rate (%)", ylim=(-2, 102))
-    ax.set_title("Learning curves (mean ± std over seeds)")
+    ax.set(xlabel="environment steps", ylabel=ylabel, ylim=(-2, 102))
+    ax.set_title(title)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper left")
@@ -449,18 +469,22 @@ def _num(x: float) -> float | None:
 def report_json(summary: dict[str, Any]) -> dict[str, Any]:
     """The summary as plain JSON: curves as lists, cells with their medians, paper numbers."""
     variants: dict[str, Any] = {}
+
+    def curve(c: Curve | None) -> dict[str, Any] | None:
+        if c is None:
+            return None
+        return {
+            "runs": c.runs,
+            "env_steps": c.env_steps.tolist(),
+            "success_mean": c.mean.tolist(),
+            "success_std": c.std.tolist(),
+        }
+
     for v in _order(set(summary["curves"]) | set(summary["cells"])):
-        c = summary["curves"].get(v)
         variants[v] = {
             "seeds": summary["seeds"].get(v, []),
-            "curve": None
-            if c is None
-            else {
-                "runs": c.runs,
-                "env_steps": c.env_steps.tolist(),
-                "success_mean": c.mean.tolist(),
-                "success_std": c.std.tolist(),
-            },
+            "curve": curve(summary["curves"].get(v)),
+            "probe_curve": curve(summary.get("probe_curves", {}).get(v)),
             "eval": {
                 s: {
                     "files": cell.evals,
@@ -484,7 +508,8 @@ def write_report(
     run_paths: list[str | Path], baselines: list[str | Path], out: str | Path
 ) -> dict[str, Any]:
     """Read everything first (so bad input fails before any file is written), then write
-    out/learning_curves.png, out/time_to_success.png, out/table.md, out/report.json.
+    out/learning_curves.png, out/time_to_success.png, out/table.md, out/report.json, and
+    out/probe_curves.png when runs logged a frozen-policy probe.
     Returns the report.json document."""
     runs = [load_run(p) for p in run_paths]
     base, skipped = load_baselines(baselines)
@@ -494,6 +519,13 @@ def write_report(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     plot_learning_curves(summary["curves"], out / "learning_curves.png")
+    if summary["probe_curves"]:
+        plot_learning_curves(
+            summary["probe_curves"],
+            out / "probe_curves.png",
+            ylabel="frozen deterministic policy, success on the probe (%)",
+            title="Probe of the frozen policy (train --probe-steps; mean ± std over seeds)",
+        )
     plot_time_to_success(summary["cells"], out / "time_to_success.png")
     (out / "table.md").write_text(markdown_table(summary))
     doc = report_json(summary) | {"skipped_baselines": [str(f) for f in skipped]}

@@ -262,3 +262,35 @@ def test_readme_table_is_replaced_between_its_markers(tmp_path: Path) -> None:
     with pytest.raises(ReportError, match="shipped-table:begin"):
         replace_table(readme, "| a |")
     assert readme.read_text() == "no markers\n"
+
+
+def test_probe_curves_from_the_probe_rows_only(tmp_path: Path) -> None:
+    from rl.runner import PROBE_COLUMNS
+
+    def probed(path: Path, seed: int, probe: dict[int, float]) -> Path:
+        fake_run(path, "sac", 1, seed, [64, 128, 192, 256], [0.9, 0.95, 1.0, 1.0])
+        rows = list(csv.DictReader(open(path / "metrics.csv")))
+        cols = (*BASE_COLUMNS, *PROBE_COLUMNS)
+        with open(path / "metrics.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=cols, restval="")
+            w.writeheader()
+            for r in rows:
+                s = int(r["env_steps"])
+                w.writerow(r | ({"probe_success_rate": probe[s]} if s in probe else {}))
+        return path
+
+    a = probed(tmp_path / "a", 0, {128: 0.2, 256: 0.6})
+    b = probed(tmp_path / "b", 1, {128: 0.4, 256: 0.4})
+    runs = [load_run(a), load_run(b)]
+    assert runs[0].probe_env_steps.tolist() == [128, 256]
+    c = summarise(runs, [])["probe_curves"]["SAC"]
+    assert c.runs == 2 and c.env_steps.tolist() == [128, 256]
+    np.testing.assert_allclose(c.mean, [0.3, 0.5])
+    np.testing.assert_allclose(c.std, [0.1, 0.1])
+    doc = write_report([a, b], [], tmp_path / "out")
+    assert doc["variants"]["SAC"]["probe_curve"]["success_mean"] == pytest.approx([0.3, 0.5])
+    check_png(tmp_path / "out/probe_curves.png")
+    plain = fake_run(tmp_path / "plain", "ppo", 1, 0, [64, 128], [0.0, 0.5])
+    assert summarise([load_run(plain)], [])["probe_curves"] == {}
+    write_report([plain], [], tmp_path / "out2")
+    assert not (tmp_path / "out2/probe_curves.png").exists()
