@@ -54,6 +54,9 @@ class ExpertConfig:
     """Velocity of action 1.0 (the task's scale), m/s."""
     max_ang_vel: float = np.radians(90.0)
     """Angular velocity of action 1.0, rad/s."""
+    box_limits: bool = False
+    """Limit each velocity component to the action scale (the action space is a box)
+    instead of the vector's norm: diagonal moves and turns about tilted axes go faster."""
     descend_while_turning: bool = False
     """While turning (phase 2), descend towards the safe height instead of holding the
     height: every turn above it is still safe, and the descent overlaps the turn."""
@@ -90,6 +93,14 @@ def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
     return v * np.minimum(1.0, limit / np.maximum(n, 1e-12))
 
 
+def _limit(v: np.ndarray, limit: float, box: bool) -> np.ndarray:
+    """v scaled so its norm (box: each component's size) is at most limit, direction kept."""
+    if not box:
+        return _clip_norm(v, limit)
+    m = np.abs(v).max(axis=-1, keepdims=True)
+    return v * np.minimum(1.0, limit / np.maximum(m, 1e-12))
+
+
 def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.ndarray:
     """(n, 18) observations -> (n, 6) actions in [-1, 1]."""
     obs = np.asarray(obs, dtype=np.float64)
@@ -102,7 +113,8 @@ def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.nda
     # orientation error: rotate the peg onto the bottom frame, w = k * rotvec(R_EB R_EP^T)
     rotvec = matrix_to_rotvec(r_eb @ np.swapaxes(r_ep, 1, 2))
     angle = np.linalg.norm(rotvec, axis=1)
-    omega = _clip_norm(cfg.rot_gain * rotvec, cfg.max_ang_vel)
+    omega = cfg.rot_gain * rotvec
+    omega = _limit(omega, cfg.max_ang_vel, cfg.box_limits)
 
     lateral_b = t_bp.copy()
     lateral_b[:, 2] = 0.0
@@ -137,6 +149,6 @@ def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.nda
     v[:, 2] = np.where(turning & ~rise, np.maximum(v[:, 2], floor), v[:, 2])
     omega = np.where((rise & (height < cfg.safe_height - 0.01))[:, None], 0.0, omega)
 
-    v = _clip_norm(v, cfg.max_lin_vel)
+    v = _limit(v, cfg.max_lin_vel, cfg.box_limits)
     act = np.concatenate([v / cfg.max_lin_vel, omega / cfg.max_ang_vel], axis=1)
     return np.clip(act, -1.0, 1.0)

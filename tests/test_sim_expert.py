@@ -107,3 +107,14 @@ def test_fast_expert_is_faster_on_the_same_spawns() -> None:
     assert runs["fast"]["success_rate"] >= 0.9
     slow, fast = (runs[k]["median_time_to_success_s"] for k in ("default", "fast"))
     assert fast < 0.85 * slow, (fast, slow)
+
+
+def test_box_limits_keep_the_direction_and_use_the_whole_box() -> None:
+    from sim.expert import _limit
+
+    v = np.array([[0.5, 0.5, 0.0], [0.1, 0.0, 0.0]])
+    norm, box = _limit(v, 0.25, False), _limit(v, 0.25, True)
+    np.testing.assert_allclose(np.linalg.norm(norm[0]), 0.25)
+    np.testing.assert_allclose(box[0], [0.25, 0.25, 0.0])  # sqrt(2) faster on the diagonal
+    np.testing.assert_allclose(box[1], v[1])  # within the limits: unchanged
+    np.testing.assert_allclose(norm[1], v[1])
