@@ -195,10 +195,14 @@ def load_eval(path: str | Path) -> EvalResult:
             f"{path}: not an evaluation file of `assetgen eval --out` (missing {missing}); "
             "re-run the evaluation with --out"
         )
+    split = Path(str(doc["dataset"])).name  # "datasets/test" and "test" both name the split
+    noise = float(doc.get("noise_scale", 1.0))
+    if noise != 1.0:  # a robustness evaluation gets its own column
+        split += f" (noise ×{noise:g})"
     return EvalResult(
         path=path,
         variant=variant,
-        split=Path(str(doc["dataset"])).name,  # "datasets/test" and "test" both name the split
+        split=split,
         policy=policy,
         episodes=int(doc["episodes"]),
         success_rate=float(doc["success_rate"]),

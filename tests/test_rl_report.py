@@ -294,3 +294,17 @@ def test_probe_curves_from_the_probe_rows_only(tmp_path: Path) -> None:
     assert summarise([load_run(plain)], [])["probe_curves"] == {}
     write_report([plain], [], tmp_path / "out2")
     assert not (tmp_path / "out2/probe_curves.png").exists()
+
+
+def test_noise_scaled_evaluations_get_their_own_column(tmp_path: Path) -> None:
+    run = fake_run(tmp_path / "sac", "sac", 1, 0, [64, 128], [0.0, 0.5])
+    who = {"algo": "sac", "stack": 1}
+    fake_eval(run / "eval_test.json", "datasets/test", 0.9, 10, [1.0] * 9, **who)
+    fake_eval(run / "eval_test_noise2.json", "datasets/test", 0.6, 10, [2.0] * 6,
+              noise_scale=2.0, **who)  # fmt: skip
+    fake_eval(run / "eval_test_c025.json", "datasets/test_c025", 0.7, 10, [3.0] * 7, **who)
+    summary = summarise([load_run(run)], [])
+    assert summary["splits"][-2:] == ["test (noise ×2)", "test_c025"]
+    cells = summary["cells"]["SAC"]
+    assert cells["test"].success_mean == 0.9 and cells["test (noise ×2)"].success_mean == 0.6
+    assert "| test (noise ×2) set |" in markdown_table(summary)
