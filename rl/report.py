@@ -145,7 +145,7 @@ def variant_name(
 
 
 def _base_name(algo: str, stack: int) -> str:
-    if algo in ("random", "scripted"):
+    if algo in ("random", "scripted", "scripted-fast"):  # the built-in agents keep their names
         base = algo
     elif algo.lower() in ("dreamer", "dreamerv3"):
         base = "DreamerV3"
@@ -393,6 +393,7 @@ def plot_learning_curves(
     path: Path,
     ylabel: str = "training success rate (%)",
     title: str = "Learning curves (mean ± std over seeds)",
+    legend: str = "upper left",
 ) -> None:
     """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG."""
     import matplotlib.pyplot as plt
@@ -415,7 +416,7 @@ def plot_learning_curves(
     ax.set_title(title)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper left")
+        ax.legend(loc=legend, fontsize="small")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
@@ -529,6 +530,7 @@ def write_report(
             out / "probe_curves.png",
             ylabel="frozen deterministic policy, success on the probe (%)",
             title="Probe of the frozen policy (train --probe-steps; mean ± std over seeds)",
+            legend="lower right",
         )
     plot_time_to_success(summary["cells"], out / "time_to_success.png")
     (out / "table.md").write_text(markdown_table(summary))

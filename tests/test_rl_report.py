@@ -222,6 +222,7 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
 def test_protocols_and_recipes_make_their_own_rows(tmp_path: Path) -> None:
     """Sampled actions, demonstrations and overrides never pool with the plain rows."""
     assert variant_name("sac", 1, "scripted") == "SAC+scripted"
+    assert variant_name("scripted-fast", 1) == "scripted-fast"
     assert variant_name("sac", 1, "scripted", {"bc_weight": 0.0}) == "SAC+scripted [bc_weight=0.0]"
     a = fake_run(tmp_path / "runs/ppo_s0", "ppo", 1, 0, [100, 200], [0.1, 0.5])
     fake_eval(a / "eval_test.json", "test", 0.6, 10, [2.0] * 6, algo="ppo", stack=1,
