@@ -202,7 +202,7 @@ def _eval_hooks():
 
     from rl.commands import EvalHooks
     from sim import make_eval_env
-    from sim.expert import expert_action, fast_expert_action
+    from sim.expert import direct_expert_action, expert_action, fast_expert_action
     from sim.recording import EpisodeRecorder, env_labels
 
     def random_agent(seed: int):
@@ -214,6 +214,7 @@ def _eval_hooks():
         agents={
             "scripted": lambda seed: expert_action,
             "scripted-fast": lambda seed: fast_expert_action,
+            "scripted-direct": lambda seed: direct_expert_action,
             "random": random_agent,
         },
         labels=env_labels,
@@ -221,6 +222,7 @@ def _eval_hooks():
         policies={
             "scripted": "deterministic",
             "scripted-fast": "deterministic",
+            "scripted-direct": "deterministic",
             "random": "stochastic",
         },
     )
@@ -230,7 +232,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from rl.commands import eval_main
 
     if (args.agent is None) == (args.checkpoint is None):
-        return _err("give one of --agent scripted|scripted-fast|random and --checkpoint RUN_DIR")
+        return _err(
+            "give one of --agent scripted|scripted-fast|scripted-direct|random and "
+            "--checkpoint RUN_DIR"
+        )
     args.run, args.episodes = args.checkpoint, args.attempts
     return eval_main(args, _eval_hooks())
 
@@ -330,7 +335,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
     e.add_argument(
-        "--agent", choices=["scripted", "scripted-fast", "random"], help="a built-in agent"
+        "--agent",
+        choices=["scripted", "scripted-fast", "scripted-direct", "random"],
+        help="a built-in agent",
     )
     e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
     e.add_argument(
@@ -391,7 +398,17 @@ def _fast_teacher():
     return fast_expert_action
 
 
-TEACHERS = {"scripted": _scripted_teacher, "scripted-fast": _fast_teacher}
+def _direct_teacher():
+    from sim.expert import direct_expert_action
+
+    return direct_expert_action
+
+
+TEACHERS = {
+    "scripted": _scripted_teacher,
+    "scripted-fast": _fast_teacher,
+    "scripted-direct": _direct_teacher,
+}
 """`assetgen train --demos NAME`: the teachers an agent can learn from."""
 
 

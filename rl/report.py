@@ -145,7 +145,8 @@ def variant_name(
 
 
 def _base_name(algo: str, stack: int) -> str:
-    if algo in ("random", "scripted", "scripted-fast"):  # the built-in agents keep their names
+    # the built-in agents keep their names
+    if algo in ("random", "scripted", "scripted-fast", "scripted-direct"):
         base = algo
     elif algo.lower() in ("dreamer", "dreamerv3"):
         base = "DreamerV3"

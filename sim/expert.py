@@ -14,11 +14,13 @@ identity quaternion for every entrance), so entrance-frame vectors are used as t
 Phases, decided per step from the observation alone (no memory):
     1. misaligned orientation and low: rise (nothing of the module is above the mounting
        surface, so a peg whose every point is above it cannot collide; a peg is at most
-       15 cm long, so turning about the bottom-face centre at 16 cm is safe);
+       15 cm long, so turning about the bottom-face centre at 16 cm is safe; with
+       `tilt_safe_height`, the height that the rest of the turn needs instead);
     2. turn to the hole's orientation while moving above the entrance on the hole axis;
     3. once the lateral error is under 1.5 mm and the tilt under 3 deg, descend along the
        axis at a speed that falls linearly to zero at those errors (half speed at least once
        inside the hole, whose walls guide the peg), to the seat.
+The thresholds and gains above are the default configuration's; FAST and DIRECT change them.
 """
 
 from __future__ import annotations
@@ -60,6 +62,27 @@ class ExpertConfig:
     descend_while_turning: bool = False
     """While turning (phase 2), descend towards the safe height instead of holding the
     height: every turn above it is still safe, and the descent overlaps the turn."""
+    tilt_safe_height: bool = False
+    """Replace the fixed `safe_height` by the height the peg needs for the rest of its turn:
+    the lowest point of any peg of the sampler's ranges (`peg_radius`, `peg_length`) below
+    the bottom-face centre, at the worst orientation of the remaining turn, plus
+    `safe_margin`. A peg whose axis points up reaches at most `peg_radius` below that centre,
+    so most turns can run 3-5 cm above the surface instead of 16 cm."""
+    peg_radius: float = 0.03
+    """Largest distance of a peg point from the peg's axis, m (Table I circumradius)."""
+    peg_length: float = 0.15
+    """Longest peg, m (Table I)."""
+    depth_fraction_min: float = 0.4
+    """Shallowest hole as a fraction of its peg's length (Table I): the observed hole depth
+    bounds this module's peg length by depth / depth_fraction_min (0: use `peg_length`)."""
+    inside_speed: float = 0.5
+    """Fraction of `insert_speed` kept at least once the peg is inside the hole."""
+    safe_margin: float = 0.015
+    """Clearance kept under the peg's lowest point while turning, m."""
+    seat_overshoot: float = 0.0
+    """Depth below the seat at which the inserting peg's axial target lies, m: the descent
+    does not slow to zero at the seat (the hole's floor stops the peg), so it reaches the
+    success radius at speed."""
 
 
 FAST = ExpertConfig(
@@ -78,9 +101,32 @@ the action scale. Chosen on the train split only (one attempt per module): 100 %
 median 2.30 s against the default's 3.48 s."""
 
 
+DIRECT = ExpertConfig(
+    pos_gain=15.0,
+    rot_gain=15.0,
+    turn_angle=np.radians(20.0),
+    insert_speed=0.25,
+    lateral_tol=0.005,
+    angle_tol=np.radians(8.0),
+    box_limits=True,
+    descend_while_turning=True,
+    tilt_safe_height=True,
+    inside_speed=1.0,
+    seat_overshoot=0.01,
+)
+"""The direct expert (`--agent scripted-direct`): FAST, with the command scaled per
+component (the action space is a box) and a turning height that follows the peg's tilt
+(`tilt_safe_height`), so the descent runs while the peg turns."""
+
+
 def fast_expert_action(obs: np.ndarray) -> np.ndarray:
     """expert_action with the FAST gains."""
     return expert_action(obs, FAST)
+
+
+def direct_expert_action(obs: np.ndarray) -> np.ndarray:
+    """expert_action with the DIRECT configuration."""
+    return expert_action(obs, DIRECT)
 
 
 def _split(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -99,6 +145,28 @@ def _limit(v: np.ndarray, limit: float, box: bool) -> np.ndarray:
         return _clip_norm(v, limit)
     m = np.abs(v).max(axis=-1, keepdims=True)
     return v * np.minimum(1.0, limit / np.maximum(m, 1e-12))
+
+
+def _turn_reach(
+    r_ep: np.ndarray, rotvec: np.ndarray, depth: np.ndarray, cfg: ExpertConfig, samples: int = 9
+) -> np.ndarray:
+    """(n,) how far below the bottom-face centre any peg of the sampler's ranges can reach at
+    the worst orientation of the remaining turn (the controller turns about the fixed axis of
+    `rotvec`, in E, so the peg's axis sweeps a circular arc), m."""
+    angle = np.linalg.norm(rotvec, axis=1, keepdims=True)
+    k = rotvec / np.maximum(angle, 1e-12)  # (n, 3) turn axis in E
+    a0 = r_ep[:, :, 2]  # peg axis in E
+    kxa = np.cross(k, a0)
+    ka = np.sum(k * a0, axis=1, keepdims=True)
+    th = angle * np.linspace(0.0, 1.0, samples)[None, :]  # (n, s) angles along the turn
+    # Rodrigues, z components only: the axis' height component at each angle
+    cz = a0[:, 2:3] * np.cos(th) + kxa[:, 2:3] * np.sin(th) + ka * k[:, 2:3] * (1.0 - np.cos(th))
+    cz = np.clip(cz, -1.0, 1.0)
+    length = np.full(len(r_ep), cfg.peg_length)
+    if cfg.depth_fraction_min > 0:
+        length = np.minimum(length, depth / cfg.depth_fraction_min)
+    reach = cfg.peg_radius * np.sqrt(1.0 - cz**2) + length[:, None] * np.maximum(-cz, 0.0)
+    return reach.max(axis=1)
 
 
 def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.ndarray:
@@ -128,26 +196,31 @@ def expert_action(obs: np.ndarray, cfg: ExpertConfig = ExpertConfig()) -> np.nda
         1.0 - angle / cfg.angle_tol, 0.0, 1.0
     )
     inside = axial < depth + 0.002  # already in the hole: the walls guide, keep going
-    descent = np.where(inside, np.maximum(align, 0.5), align) * cfg.insert_speed
+    descent = np.where(inside, np.maximum(align, cfg.inside_speed), align) * cfg.insert_speed
     to_standoff = cfg.pos_gain * (depth + cfg.standoff - axial)
     v_axial = np.where(
         (align > 0) | inside,
-        -np.minimum(descent, cfg.pos_gain * np.maximum(axial, 0.0)),
+        -np.minimum(descent, cfg.pos_gain * np.maximum(axial + cfg.seat_overshoot, 0.0)),
         to_standoff,
     )
     v = -cfg.pos_gain * lateral + v_axial[:, None] * axis
 
     # turning: stay (or get) high until the orientation is nearly right
     turning = angle > cfg.turn_angle
-    low = height < cfg.safe_height
+    safe = (
+        _turn_reach(r_ep, rotvec, depth, cfg) + cfg.safe_margin
+        if cfg.tilt_safe_height
+        else np.full(len(obs), cfg.safe_height)
+    )
+    low = height < safe
     rise = turning & low
     v_rise = np.zeros_like(v)
-    v_rise[:, 2] = cfg.pos_gain * (cfg.safe_height + 0.01 - height)
+    v_rise[:, 2] = cfg.pos_gain * (safe + 0.01 - height)
     v = np.where(rise[:, None], v_rise, v)
     # the lateral move at height is safe; no descent while turning
-    floor = cfg.pos_gain * (cfg.safe_height - height) if cfg.descend_while_turning else 0.0
+    floor = cfg.pos_gain * (safe - height) if cfg.descend_while_turning else 0.0
     v[:, 2] = np.where(turning & ~rise, np.maximum(v[:, 2], floor), v[:, 2])
-    omega = np.where((rise & (height < cfg.safe_height - 0.01))[:, None], 0.0, omega)
+    omega = np.where((rise & (height < safe - 0.01))[:, None], 0.0, omega)
 
     v = _limit(v, cfg.max_lin_vel, cfg.box_limits)
     act = np.concatenate([v / cfg.max_lin_vel, omega / cfg.max_ang_vel], axis=1)
