@@ -461,10 +461,10 @@ def plot_time_to_success(
     ax.set(xlabel="time to success (s)", ylabel="density of successful episodes (1/s)")
     ax.set_title(f"Time to success on the {split} set (dashed: median)")
     ax.grid(alpha=0.3)
-    if have:
-        ax.legend(loc="upper right")
+    if have:  # below the axes: the variants' names are long and would cover the curves
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize="small")
     fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
 
 
