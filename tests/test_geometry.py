@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 
 from assetgen.checks.module_checks import (
@@ -110,6 +110,18 @@ def _write_and_verify(params: ModuleParams, folder) -> dict:
     return rec
 
 
+def _reject_if_refused(params: ModuleParams):
+    """build_module(params), or a hypothesis rejection where the generator refuses the
+    parameters by design: near some corners of Table I the sleeve would lean out of the
+    plate's footprint (that refusal has its own test below). Any other error fails."""
+    try:
+        return build_module(params)
+    except GeometryError as e:
+        if "sleeve under the hole reaches" not in str(e):
+            raise
+        reject()
+
+
 @pytest.mark.parametrize("name", list(CORNERS))
 def test_corners_pass_every_check(name, tmp_path):
     rec = _write_and_verify(CORNERS[name], tmp_path)
@@ -125,6 +137,7 @@ def test_corners_pass_every_check(name, tmp_path):
 )
 @given(params=params_strategy())
 def test_every_sampled_module_passes(params, tmp_path_factory):
+    _reject_if_refused(params)
     rec = _write_and_verify(params, tmp_path_factory.mktemp("m"))
     assert abs(rec["checks"]["clearance_error_m"]) <= 1e-6
 
@@ -134,7 +147,7 @@ def test_every_sampled_module_passes(params, tmp_path_factory):
 def test_clearance_is_exact_for_any_value(params, clearance):
     from dataclasses import replace
 
-    g = build_module(replace(params, clearance=clearance))
+    g = _reject_if_refused(replace(params, clearance=clearance))
     gaps = verify(g.peg, g.module, g.design_pose, clearance, insertion_travel(g))
     assert abs(gaps["clearance_m"] - clearance) <= 1e-6
 
