@@ -372,12 +372,15 @@ def markdown_table(summary: dict[str, Any]) -> str:
     )
 
 
-def _color(variant: str) -> Any:
+def palette(variants: set[str]) -> dict[str, Any]:
+    """One colour per variant of a report, distinct for up to 20 variants (tab20's colours,
+    strong shades first), in table order, so every plot of the report draws a variant alike.
+    (A colour from a hash of the name let two variants share one.)"""
     import matplotlib
 
-    names = list(ROW_ORDER)
-    i = names.index(variant) if variant in names else len(names) + sum(map(ord, variant))
-    return matplotlib.colormaps["tab10"](i % 10)
+    cmap = matplotlib.colormaps["tab20"]
+    order = [2 * i for i in range(10)] + [2 * i + 1 for i in range(10)]
+    return {v: cmap(order[i % 20]) for i, v in enumerate(_order(set(variants)))}
 
 
 def _figure() -> tuple[Any, Any]:
@@ -395,16 +398,19 @@ def plot_learning_curves(
     ylabel: str = "training success rate (%)",
     title: str = "Learning curves (mean ± std over seeds)",
     legend: str = "upper left",
+    colors: dict[str, Any] | None = None,
 ) -> None:
-    """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG."""
+    """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG.
+    colors: {variant: colour} (default: `palette` of these curves)."""
     import matplotlib.pyplot as plt
 
+    colors = colors or palette(set(curves))
     fig, ax = _figure()
     for v in _order(set(curves)):
         c = curves[v]
         if not c.runs:
             continue
-        col = _color(v)
+        col = colors[v]
         ax.plot(
             c.env_steps, 100 * c.mean, color=col, label=f"{v} ({c.runs} seed{'s' * (c.runs > 1)})"
         )
@@ -424,12 +430,17 @@ def plot_learning_curves(
 
 
 def plot_time_to_success(
-    cells: dict[str, dict[str, Cell]], path: Path, split: str = "test"
+    cells: dict[str, dict[str, Cell]],
+    path: Path,
+    split: str = "test",
+    colors: dict[str, Any] | None = None,
 ) -> None:
     """Histogram (density, 1/s) of time to success (s) per variant on `split`, its median
-    a dashed line; the legend gives the median and the count of successes."""
+    a dashed line; the legend gives the median and the count of successes.
+    colors: {variant: colour} (default: `palette` of these variants)."""
     import matplotlib.pyplot as plt
 
+    colors = colors or palette(set(cells))
     fig, ax = _figure()
     have = {v: row[split] for v, row in cells.items() if split in row}
     every = [c.time_to_success_s for c in have.values() if len(c.time_to_success_s)]
@@ -439,7 +450,7 @@ def plot_time_to_success(
         top = max(float(np.max(np.concatenate(every))), 1e-3)
         bins = np.linspace(0.0, top, max(10, min(100, int(top / 0.1) + 1)))
     for v in _order(set(have)):
-        c, col = have[v], _color(v)
+        c, col = have[v], colors[v]
         if not len(c.time_to_success_s):
             ax.plot([], [], color=col, label=f"{v}: no success (n = {c.episodes})")
             continue
@@ -524,7 +535,8 @@ def write_report(
     summary = summarise(runs, base)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    plot_learning_curves(summary["curves"], out / "learning_curves.png")
+    colors = palette(set(summary["curves"]) | set(summary["cells"]))
+    plot_learning_curves(summary["curves"], out / "learning_curves.png", colors=colors)
     if summary["probe_curves"]:
         plot_learning_curves(
             summary["probe_curves"],
@@ -532,8 +544,9 @@ def write_report(
             ylabel="frozen deterministic policy, success on the probe (%)",
             title="Probe of the frozen policy (train --probe-steps; mean ± std over seeds)",
             legend="lower right",
+            colors=colors,
         )
-    plot_time_to_success(summary["cells"], out / "time_to_success.png")
+    plot_time_to_success(summary["cells"], out / "time_to_success.png", colors=colors)
     (out / "table.md").write_text(markdown_table(summary))
     doc = report_json(summary) | {"skipped_baselines": [str(f) for f in skipped]}
     (out / "report.json").write_text(json.dumps(doc, indent=2))

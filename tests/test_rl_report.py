@@ -309,3 +309,22 @@ def test_noise_scaled_evaluations_get_their_own_column(tmp_path: Path) -> None:
     cells = summary["cells"]["SAC"]
     assert cells["test"].success_mean == 0.9 and cells["test (noise ×2)"].success_mean == 0.6
     assert "| test (noise ×2) set |" in markdown_table(summary)
+
+
+def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
+    """Six variants whose names hashed to shared colours before: all distinct now, and the
+    same variant gets the same colour in every plot of one report."""
+    from rl.report import palette
+
+    names = {
+        "scripted",
+        "scripted-fast",
+        "scripted-direct",
+        "SAC+scripted-direct [bc_decay_steps=0, bc_weight=0.5, warmup_steps=50000]",
+        "SAC+scripted-direct [bc_weight=0.0, warmup_steps=50000]",
+        "SAC+scripted-fast [bc_decay_steps=0, bc_weight=0.5, warmup_steps=50000]",
+    }
+    colours = palette(names)
+    assert set(colours) == names
+    assert len({tuple(c) for c in colours.values()}) == len(names)
+    assert palette(names) == colours
