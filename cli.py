@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from dataclasses import replace
@@ -12,6 +13,10 @@ from rich.console import Console
 from rich.table import Table
 
 console = Console(stderr=False)
+
+EXPERT_NAMES = ("scripted", "scripted-fast", "scripted-direct")
+"""The built-in scripted experts (`--agent`, `--demos`): the keys of sim.expert.EXPERTS,
+named here so that building the parser imports no simulator."""
 
 
 def _err(msg: str) -> int:
@@ -202,7 +207,7 @@ def _eval_hooks():
 
     from rl.commands import EvalHooks
     from sim import make_eval_env
-    from sim.expert import direct_expert_action, expert_action, fast_expert_action
+    from sim.expert import EXPERTS
     from sim.recording import EpisodeRecorder, env_labels
 
     def random_agent(seed: int):
@@ -212,19 +217,12 @@ def _eval_hooks():
     return EvalHooks(
         make_env=make_eval_env,
         agents={
-            "scripted": lambda seed: expert_action,
-            "scripted-fast": lambda seed: fast_expert_action,
-            "scripted-direct": lambda seed: direct_expert_action,
+            **{name: (lambda seed, act=act: act) for name, act in EXPERTS.items()},
             "random": random_agent,
         },
         labels=env_labels,
         recorder=EpisodeRecorder,
-        policies={
-            "scripted": "deterministic",
-            "scripted-fast": "deterministic",
-            "scripted-direct": "deterministic",
-            "random": "stochastic",
-        },
+        policies={**dict.fromkeys(EXPERTS, "deterministic"), "random": "stochastic"},
     )
 
 
@@ -232,10 +230,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from rl.commands import eval_main
 
     if (args.agent is None) == (args.checkpoint is None):
-        return _err(
-            "give one of --agent scripted|scripted-fast|scripted-direct|random and "
-            "--checkpoint RUN_DIR"
-        )
+        agents = "|".join((*EXPERT_NAMES, "random"))
+        return _err(f"give one of --agent {agents} and --checkpoint RUN_DIR")
     args.run, args.episodes = args.checkpoint, args.attempts
     return eval_main(args, _eval_hooks())
 
@@ -336,7 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
     e.add_argument(
         "--agent",
-        choices=["scripted", "scripted-fast", "scripted-direct", "random"],
+        choices=[*EXPERT_NAMES, "random"],
         help="a built-in agent",
     )
     e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
@@ -386,29 +382,13 @@ def _probe_env(dataset: str, modules: int):
     return make_eval_env(dataset, None, 0, modules=modules)
 
 
-def _scripted_teacher():
-    from sim.expert import expert_action
+def _expert(name: str):
+    from sim.expert import EXPERTS
 
-    return expert_action
-
-
-def _fast_teacher():
-    from sim.expert import fast_expert_action
-
-    return fast_expert_action
+    return EXPERTS[name]
 
 
-def _direct_teacher():
-    from sim.expert import direct_expert_action
-
-    return direct_expert_action
-
-
-TEACHERS = {
-    "scripted": _scripted_teacher,
-    "scripted-fast": _fast_teacher,
-    "scripted-direct": _direct_teacher,
-}
+TEACHERS = {name: functools.partial(_expert, name) for name in EXPERT_NAMES}
 """`assetgen train --demos NAME`: the teachers an agent can learn from."""
 
 

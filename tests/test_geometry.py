@@ -23,6 +23,7 @@ from assetgen.core.mesh import Mesh
 from assetgen.core.stl import read_stl_mm, stl_bytes
 from assetgen.dataset.module_writer import write_module
 from assetgen.geometry.solids import (
+    FootprintError,
     GeometryError,
     build_module,
     cross_section,
@@ -116,9 +117,7 @@ def _reject_if_refused(params: ModuleParams):
     plate's footprint (that refusal has its own test below). Any other error fails."""
     try:
         return build_module(params)
-    except GeometryError as e:
-        if "sleeve under the hole reaches" not in str(e):
-            raise
+    except FootprintError:
         reject()
 
 

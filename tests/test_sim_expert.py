@@ -79,15 +79,11 @@ def test_eval_refuses_bad_input(capsys) -> None:
 
 
 def test_fast_expert_descends_while_turning_only_above_the_safe_height() -> None:
-    from assetgen.core.rotations import matrix_to_rotvec
-    from sim.expert import FAST, _split, fast_expert_action
+    from sim.expert import FAST, fast_expert_action
 
     env = make_eval_env(str(sim_dataset()), None, 0)
-    obs = np.concatenate([env.reset(seed=s) for s in range(8)])
-    t_ep, r_ep, _, r_bp = _split(obs.astype(np.float64))
-    r_eb = r_ep @ np.swapaxes(r_bp, 1, 2)
-    angle = np.linalg.norm(matrix_to_rotvec(r_eb @ np.swapaxes(r_ep, 1, 2)), axis=1)
-    turning_high = (angle > FAST.turn_angle) & (t_ep[:, 2] > FAST.safe_height + 0.01)
+    obs = np.concatenate([env.reset(seed=s) for s in range(8)]).astype(np.float64)
+    turning_high = _turning(obs, FAST) & (obs[:, 2] > FAST.safe_height + 0.01)
     assert turning_high.sum() >= 4  # spawns are 15-25 cm up with any orientation
     slow, fast = expert_action(obs)[turning_high, 2], fast_expert_action(obs)[turning_high, 2]
     assert (slow >= 0).all() and (fast < 0).all()
@@ -167,9 +163,20 @@ def test_direct_expert_turns_low_and_beats_the_fast_one() -> None:
 
 
 def _turning(obs: np.ndarray, cfg) -> np.ndarray:
+    """(n,) the expert's own test for phase 2: orientation error above cfg.turn_angle."""
     from assetgen.core.rotations import matrix_to_rotvec
     from sim.expert import _split
 
     _, r_ep, _, r_bp = _split(obs)
     r_eb = r_ep @ np.swapaxes(r_bp, 1, 2)
     return np.linalg.norm(matrix_to_rotvec(r_eb @ np.swapaxes(r_ep, 1, 2)), axis=1) > cfg.turn_angle
+
+
+def test_the_cli_names_every_expert() -> None:
+    """`--agent` and `--demos` offer exactly the experts sim.expert defines."""
+    from cli import EXPERT_NAMES, TEACHERS
+    from sim.expert import EXPERTS
+
+    assert tuple(EXPERTS) == EXPERT_NAMES
+    for name, act in EXPERTS.items():
+        assert TEACHERS[name]() is act

@@ -39,6 +39,11 @@ class GeometryError(ParamError):
     """Valid-looking params whose module cannot be built (e.g. the hole leaves the plate)."""
 
 
+class FootprintError(GeometryError):
+    """Params whose sleeve would lean out of the plate's footprint (near some corners of
+    Table I): refused by design, so a module is never wider than its plate."""
+
+
 @dataclass(frozen=True)
 class ModuleGeometry:
     """The solids and frames of one module. Meshes in metres.
@@ -227,7 +232,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         # the plate's footprint, or the module is wider than its plate (and its neighbours')
         reach = np.abs(sleeve[:, :2]).max()
         if reach > half + FOOTPRINT_TOLERANCE:
-            raise GeometryError(
+            raise FootprintError(
                 f"the sleeve under the hole reaches {reach * 1e3:.2f} mm from the plate centre, "
                 f"beyond the plate's {half * 1e3:g} mm half-width (hole depth "
                 f"{p.hole_depth * 1e3:.1f} mm, tilts ({math.degrees(p.hole_tilt_x):.1f}, "
