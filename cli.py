@@ -69,7 +69,12 @@ def cmd_sample(args: argparse.Namespace) -> int:
         root, spec = _sample_spec(args)
         _check_writable(root)
         s = generate(
-            root, spec, workers=args.workers, overwrite=args.overwrite, progress=not args.quiet
+            root,
+            spec,
+            workers=args.workers,
+            overwrite=args.overwrite,
+            progress=not args.quiet,
+            ray=args.ray,
         )
     except (DatasetError, ParamError, ValueError) as e:
         return _err(str(e))
@@ -246,12 +251,24 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return bench_main(args)
         except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
-    if args.what == "assets":
+    if args.what == "load":
+        from assetgen.dataset.spec import DatasetError, resolve
+        from sim.assets import AssetError
+        from sim.bench_load import bench_load
+
+        try:
+            result = bench_load(resolve(args.dataset)[0], n=args.n)
+        except (DatasetError, AssetError) as e:
+            return _err(str(e))
+    elif args.what == "assets":
         from assetgen.bench import bench_assets
 
-        result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
+        try:
+            result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
+        except ValueError as e:
+            return _err(str(e))
     else:
-        return _err(f"unknown benchmark {args.what!r}; valid: assets")
+        return _err(f"unknown benchmark {args.what!r}; valid: assets, sim, load")
     table = Table(title=f"bench {args.what}", show_header=False)
     for k, v in result.items():
         if not isinstance(v, dict):
@@ -288,6 +305,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
     s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     s.add_argument("--overwrite", action="store_true", help="replace a dataset of another spec")
+    s.add_argument(
+        "--ray",
+        nargs="?",
+        const="",
+        metavar="ADDRESS",
+        help="run the modules as Ray tasks: on the cluster at ADDRESS (HOST:PORT, "
+        "ray://HOST:PORT or auto), or without it on a local Ray instance; --out must be a "
+        "folder every node sees (extra [cluster])",
+    )
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=cmd_sample)
 
@@ -311,11 +337,11 @@ def build_parser() -> argparse.ArgumentParser:
     i.set_defaults(func=cmd_info)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
-    b.add_argument("what", choices=["assets", "sim"], help="what to measure")
-    b.add_argument("--n", type=int, default=256, help="modules (assets)")
+    b.add_argument("what", choices=["assets", "sim", "load"], help="what to measure")
+    b.add_argument("--n", type=int, default=256, help="modules (assets, load)")
     b.add_argument("--envs", type=int, default=1024, help="environments (sim)")
     b.add_argument("--steps", type=int, default=200, help="control steps (sim)")
-    b.add_argument("--dataset", default="test", help="dataset (sim; default test)")
+    b.add_argument("--dataset", default="test", help="dataset (sim, load; default test)")
     b.add_argument("--threads", type=int, default=None, help="rollout threads (sim)")
     b.add_argument(
         "--kernels",

@@ -1,9 +1,9 @@
-"""What the simulator reads from a dataset: module.json and the STL files, nothing else.
+"""What the simulator reads from a dataset: module.json and peg_in_hole.xml, nothing else.
 
-sim/ never calls the geometry code: a module is its frames, its peg's mass
-properties, the peg mesh and the convex collision pieces, all as written on disk. Every file
-is checked here, before any simulation, so a missing or corrupt dataset fails with one clear
-message naming the file.
+sim/ never calls the geometry code: a module is its frames, its peg's mass properties (from
+module.json), the peg mesh and the convex collision pieces (inline in the MJCF), all as
+written on disk. Every file is checked here, before any simulation, so a missing or corrupt
+dataset fails with one clear message naming the file.
 """
 
 from __future__ import annotations
@@ -14,9 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
+from assetgen.core.inline_mesh import read_inline_meshes
 from assetgen.core.mesh import Mesh
 from assetgen.core.rotations import quat_to_matrix
-from assetgen.core.stl import parse_stl_mm
+
+MJCF_FILE = "peg_in_hole.xml"
+"""The module file holding the peg and the collision pieces (inline meshes)."""
+PEG_MESH = "peg"
+PIECE_PREFIX = "piece_"
 
 
 class AssetError(ValueError):
@@ -49,15 +54,20 @@ class ModuleAsset:
     """Convex collision pieces in the module frame; their union is the module."""
 
 
-def parse_stl(data: bytes, name: str) -> Mesh:
-    """Binary STL bytes in millimetres -> Mesh in metres; AssetError naming the file."""
+def read_meshes(data: bytes, name: str) -> tuple[Mesh, tuple[Mesh, ...]]:
+    """The peg and the collision pieces held inline in a module's MJCF bytes; AssetError
+    naming the file."""
     try:
-        mesh = parse_stl_mm(data, name)
+        meshes = read_inline_meshes(data, name)
     except ValueError as e:
         raise AssetError(f"{e}; regenerate the module (`assetgen check DATASET --repair`)") from e
-    if len(mesh.faces) == 0:
-        raise AssetError(f"{name}: holds no triangles; regenerate the module")
-    return mesh
+    pieces = tuple(m for n, m in meshes.items() if n.startswith(PIECE_PREFIX))
+    if PEG_MESH not in meshes or not pieces:
+        raise AssetError(
+            f"{name}: holds no inline peg mesh or no collision pieces; regenerate the module "
+            "with the `mjcf` format"
+        )
+    return meshes[PEG_MESH], pieces
 
 
 def _frame(d: dict, name: str, where: Path) -> np.ndarray:
@@ -84,14 +94,13 @@ def _read(path: Path) -> bytes:
 
 
 def load_module(module_dir: Path | str) -> ModuleAsset:
-    """Read one module folder (module.json, peg.stl, the collision pieces) and check it."""
+    """Read one module folder (module.json, and the meshes in peg_in_hole.xml) and check it."""
     d = Path(module_dir)
     meta_path = d / "module.json"
     try:
         meta = json.loads(_read(meta_path))
         frames = meta["frames"]
         peg = meta["peg"]
-        pieces = meta["collision"]["pieces"]
         clearance = float(meta["clearance"])
         mass = float(peg["mass_kg"])
         com = np.asarray(peg["com_m"], dtype=float).reshape(3)
@@ -100,23 +109,27 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
         raise AssetError(f"{meta_path}: not valid JSON ({e}); regenerate the module") from e
     except (KeyError, TypeError, ValueError) as e:
         raise AssetError(
-            f"{meta_path}: missing or malformed {e}; the simulator needs frames, peg, "
-            "clearance and collision.pieces (generate with the `collision` format)"
+            f"{meta_path}: missing or malformed {e}; the simulator needs frames, peg and clearance"
         ) from e
-    if not pieces:
-        raise AssetError(f"{meta_path}: no collision pieces; generate with `--formats collision`")
     if mass <= 0 or not np.all(np.isfinite(inertia)) or np.linalg.eigvalsh(inertia).min() <= 0:
         raise AssetError(f"{meta_path}: peg mass/inertia not positive")
+    mjcf = d / MJCF_FILE
+    if not mjcf.exists():
+        raise AssetError(
+            f"{mjcf}: missing; the simulator reads the meshes from the MJCF (generate the "
+            "dataset with the `mjcf` format, the default)"
+        )
+    peg_mesh, pieces = read_meshes(_read(mjcf), str(mjcf))
     return ModuleAsset(
         id=str(meta.get("id", d.name)),
         clearance=clearance,
         entrance=_frame(frames.get("entrance", {}), "entrance", meta_path),
         bottom=_frame(frames.get("bottom", {}), "bottom", meta_path),
-        peg=parse_stl(_read(d / "peg.stl"), str(d / "peg.stl")),
+        peg=peg_mesh,
         peg_mass=mass,
         peg_com=com,
         peg_inertia=inertia,
-        pieces=tuple(parse_stl(_read(d / p), str(d / p)) for p in pieces),
+        pieces=pieces,
     )
 
 
@@ -134,6 +147,6 @@ def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleA
     if not dirs:
         raise AssetError(
             f"{root} holds no finished modules; generate some with "
-            "`assetgen sample --n N --out DIR --formats collision`"
+            "`assetgen sample --n N --out DIR`"
         )
     return [load_module(p) for p in dirs]

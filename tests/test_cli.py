@@ -87,14 +87,21 @@ def test_output_path_is_a_file(tmp_path):
     assert f.read_text() == "x"
 
 
-def test_check_info_bench(tiny_dataset):
+def test_check_info_bench(tiny_dataset, tmp_path):
     p = run("check", str(tiny_dataset), check=True)
     for label in ("missing", "corrupt", "stale"):
         assert row(p.stdout, label) == "0", label
     assert row(p.stdout, "manifest") == "ok"
     p = run("info", str(tiny_dataset), check=True)
     assert "circumradius" in p.stdout and "measured clearance" in p.stdout
-    p = run("bench", "assets", "--n", "4", "--workers", "1", "--json", check=True)
+    scratch = tmp_path / "made" / "here"  # --dir is made if missing
+    p = run("bench", "assets", "--n", "4", "--workers", "1", "--json", "--dir", str(scratch),
+            check=True)  # fmt: skip
+    assert scratch.is_dir() and not list(scratch.iterdir())  # and left empty
+    (tmp_path / "file").write_text("x")
+    bad = run("bench", "assets", "--n", "1", "--dir", str(tmp_path / "file" / "sub"))
+    assert bad.returncode == 2 and "cannot make the folder" in bad.stderr
+    assert "Traceback" not in bad.stderr
     figures = json.loads(p.stdout.strip().splitlines()[-1])
     assert figures["modules"] == 4 and figures["failed"] == 0 and figures["modules_per_s"] > 0
     steps = figures["step_ms"]  # per-module time of each export step
@@ -213,3 +220,11 @@ def test_commands_start_without_importing_torch():
 
     assert sorted(ALGO_NAMES) == sorted(ALGOS)
     assert sorted(PRESET_NAMES) == sorted(PRESETS)
+
+
+def test_bench_load(tiny_dataset):
+    p = run("bench", "load", "--dataset", str(tiny_dataset), "--n", "2", "--json", check=True)
+    figures = json.loads(p.stdout.strip().splitlines()[-1])
+    assert figures["modules"] == 2
+    assert figures["mjcf_ms"] > 0 and figures["packed_ms"] > 0 and figures["mjspec_ms"] > 0
+    assert not list(Path(tiny_dataset).glob(".bench-load-*"))  # its scratch files are gone

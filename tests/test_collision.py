@@ -8,8 +8,8 @@ import trimesh
 
 from assetgen.checks.module_checks import CheckError
 from assetgen.collision.exact import exact_pieces
-from assetgen.collision.pieces import check_pieces, write_collision
-from assetgen.core.stl import read_stl_triangles_mm
+from assetgen.collision.pieces import check_pieces, collision_pieces
+from assetgen.core.stl import parse_stl_mm, read_stl_triangles_mm, stl_bytes
 from assetgen.formats.context import ExportContext
 from assetgen.geometry.solids import build_module, insertion_travel
 from assetgen.params.sampler import SamplerConfig, sample_params
@@ -37,17 +37,25 @@ def test_exact_pieces_are_convex_and_add_up_to_the_module(seed):
 @pytest.mark.parametrize("name", list(CORNERS))
 def test_corner_pieces_keep_the_clearance(name, tmp_path):
     g = build_module(CORNERS[name])
-    rec = write_collision(ExportContext(tmp_path, g, {}), insertion_travel(g))
+    rec = collision_pieces(ExportContext(tmp_path, g, {}), insertion_travel(g))
     assert rec["volume_ratio"] == pytest.approx(1.0, abs=1e-6)
     assert abs(rec["clearance_lower_bound_m"] - g.params.clearance) <= 1e-6
     assert abs(rec["insertion_lower_bound_m"] - g.params.clearance) <= 1e-6
 
 
-def test_piece_files_read_back(tmp_path):
+def test_pieces_are_checked_as_the_files_store_them(tmp_path):
+    """The pieces the check proved are the float32-millimetre ones the MJCF and USD hold
+    (what an STL of each reads back as), each a closed convex solid; no file is written."""
     g = build_module(CORNERS["32-gon"])
-    rec = write_collision(ExportContext(tmp_path, g, {}), insertion_travel(g))
-    for name in rec["pieces"]:
-        tm = trimesh.load_mesh(tmp_path / name)
+    ctx = ExportContext(tmp_path, g, {})
+    rec = collision_pieces(ctx, insertion_travel(g))
+    assert rec["pieces"] == len(ctx.pieces) == len(exact_pieces(g))
+    assert not list(tmp_path.iterdir())
+    for piece, exact in zip(ctx.pieces, exact_pieces(g), strict=True):
+        back = parse_stl_mm(stl_bytes(exact))
+        assert np.array_equal(piece.vertices, back.vertices)
+        assert np.array_equal(piece.faces, back.faces)
+        tm = trimesh.Trimesh(piece.vertices, piece.faces, process=False)
         assert tm.is_watertight and tm.is_convex
 
 

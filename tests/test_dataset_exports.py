@@ -38,16 +38,50 @@ def test_every_usd_opens_and_validates(tiny_dataset):
             _select(stage, variant)
             assert _validation_errors(stage) == [], (mid, variant)
         pieces = stage.GetPrimAtPath("/module/collision_pieces")
-        n = len(meta["collision"]["pieces"])
+        n = meta["collision"]["pieces"]
         assert pieces and len(pieces.GetChildren()) == n
 
 
-def test_module_json_lists_every_format_with_hashes(tiny_dataset):
+SIX_FILES = {
+    "module.json",
+    "peg.stl",
+    "module.stl",
+    "peg_in_hole.3mf",
+    "peg_in_hole.xml",
+    "peg_in_hole.usda",
+}
+
+
+def test_a_module_is_six_files_with_hashes(tiny_dataset):
     for _, paths, meta in _modules(tiny_dataset):
-        for name in ("peg.stl", "module.stl", "peg_in_hole.3mf", "peg_in_hole.usda"):
-            assert name in meta["files"] and len(meta["files"][name]) == 64
-        assert all(p in meta["files"] for p in meta["collision"]["pieces"])
+        folder = paths["module_json"].parent
+        assert {p.name for p in folder.iterdir()} == SIX_FILES
+        assert all(p.is_file() for p in folder.iterdir())
+        assert set(meta["files"]) == SIX_FILES - {"module.json"}
+        assert all(len(h) == 64 for h in meta["files"].values())
         assert json.loads(paths["module_json"].read_text())["files"] == meta["files"]
+
+
+def test_the_mjcf_loads_alone_from_an_empty_folder(tiny_dataset, tmp_path):
+    """Copied alone anywhere, the MJCF loads (inline meshes) and its meshes are the
+    simulator's: the ones it reads are the same arrays as peg.stl's read-back."""
+    import shutil
+
+    import mujoco
+
+    from assetgen.core.stl import read_stl_mm
+    from sim.assets import load_module
+
+    _, paths, meta = _modules(tiny_dataset)[0]
+    alone = tmp_path / "empty"
+    alone.mkdir()
+    shutil.copy(paths["mjcf"], alone / "copied.xml")
+    model = mujoco.MjModel.from_xml_path(str(alone / "copied.xml"))
+    assert model.nmesh == model.ngeom == meta["collision"]["pieces"] + 1
+    asset = load_module(paths["module_json"].parent)
+    peg = read_stl_mm(paths["peg_stl"])
+    assert np.array_equal(asset.peg.vertices, peg.vertices)
+    assert np.array_equal(asset.peg.faces, peg.faces)
 
 
 def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
@@ -57,7 +91,7 @@ def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
 
     for mid, paths, meta in _modules(tiny_dataset):
         model = mujoco.MjModel.from_xml_path(str(paths["mjcf"]))
-        assert model.ngeom == len(meta["collision"]["pieces"]) + 1, mid
+        assert model.ngeom == meta["collision"]["pieces"] + 1, mid
         drop = drop_test(paths["mjcf"], steps=1000)
         assert drop["reached_floor"], mid
         assert drop["rest_distance"] < 0.2e-3, (mid, drop)

@@ -4,7 +4,7 @@ The module is built here (not by the generator): a 20 x 20 x 40 mm peg, a 22 x 2
 (1 mm clearance per side) 25 mm deep, in a 150 x 150 x 5 mm plate with a sleeve of 5 mm walls
 and a 5 mm floor. Its collision pieces are the exact convex decomposition "plate (or sleeve)
 beyond one face plane of the hole" (each an intersection of half-spaces, hulled by trimesh),
-written as millimetre STL. The same module is also built with its hole axis tilted (15 deg
+stored inline in the MJCF. The same module is also built with its hole axis tilted (15 deg
 about x, -15 deg about y, 30 deg yaw), so the drop test pushes along a non-vertical axis.
 """
 
@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
-import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -23,6 +21,8 @@ import pytest
 import trimesh
 
 from assetgen.core.frames import Frame, matrix_to_quat
+from assetgen.core.inline_mesh import read_inline_meshes, same_mesh, stored
+from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import PhysicsConfig
 from assetgen.formats.mjcf import write_mjcf
 from assetgen.physics.mjcf_checks import drop_test, side_push_test
@@ -39,10 +39,11 @@ ENTRANCE_XY = (0.010, -0.005)  # hole position on the plate, m
 
 @dataclass(frozen=True)
 class SyntheticModule:
-    """A written module folder and what the exporter needs to know about it."""
+    """A module's meshes, the folder its MJCF goes to, and what the exporter needs."""
 
     folder: Path
-    piece_files: list[str]
+    peg: Mesh
+    pieces: list[Mesh]
     entrance: Frame
     bottom: Frame
     design: Frame
@@ -86,11 +87,8 @@ def _polytope(halfspaces: list[tuple]) -> trimesh.Trimesh | None:
     return hull if hull.volume > 1e-9 else None
 
 
-def _write_stl(mesh: trimesh.Trimesh, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mm = mesh.copy()
-    mm.apply_scale(1000.0)
-    path.write_bytes(mm.export(file_type="stl"))
+def _mesh(tm: trimesh.Trimesh) -> Mesh:
+    return Mesh(np.asarray(tm.vertices, float), np.asarray(tm.faces, np.int64))
 
 
 def peg_mass_properties() -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +100,7 @@ def peg_mass_properties() -> tuple[np.ndarray, np.ndarray]:
 
 
 def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)):
-    """Write peg.stl and collision/piece_XXX.stl (mm) to `folder`; the hole axis is the module
+    """The module's peg and pieces, its MJCF to go to `folder`; the hole axis is the module
     z turned by `tilt` = (about x, about y, yaw about the axis) degrees."""
     rot = _rotation(*tilt)
     entrance = np.array([*ENTRANCE_XY, 0.0])
@@ -110,7 +108,6 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
     hole[:3, :3] = rot
     hole[:3, 3] = entrance - DEPTH * rot[:, 2]
     peg = _polytope(_box_halfspaces([-PEG_HALF] * 2 + [0.0], [PEG_HALF] * 2 + [PEG_HEIGHT]))
-    _write_stl(peg, folder / "peg.stl")
 
     a = PEG_HALF + CLEARANCE
     plate = _box_halfspaces([-PLATE_HALF, -PLATE_HALF, -WALL], [PLATE_HALF, PLATE_HALF, 0.0])
@@ -122,7 +119,7 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
     # the hole's face planes in the hole frame (outward normal, offset): the module is the
     # union of "solid beyond one plane" over the planes, each piece convex
     planes = [((1, 0, 0), a), ((-1, 0, 0), a), ((0, 1, 0), a), ((0, -1, 0), a), ((0, 0, -1), 0)]
-    files = []
+    pieces = []
     for solid in (plate, sleeve):
         for normal, offset in planes:
             n = rot @ np.asarray(normal, float)
@@ -130,14 +127,12 @@ def make_module(folder: Path, tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
             piece = _polytope([*solid, (-n, -offset - n @ hole[:3, 3])])
             if piece is None:  # nothing of this solid lies beyond the plane
                 continue
-            name = f"collision/piece_{len(files):03d}.stl"
-            _write_stl(piece, folder / name)
-            files.append(name)
+            pieces.append(_mesh(piece))
     quat = tuple(float(q) for q in matrix_to_quat(rot))
     bottom = Frame(tuple(float(x) for x in hole[:3, 3]), quat)
     design = Frame(tuple(float(x) for x in hole[:3, 3] + CLEARANCE * rot[:, 2]), quat)
     return SyntheticModule(
-        folder, files, Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design
+        folder, _mesh(peg), pieces, Frame(tuple(entrance), (1.0, 0.0, 0.0, 0.0)), bottom, design
     )
 
 
@@ -145,8 +140,8 @@ def document_args(module: SyntheticModule) -> dict:
     """write_mjcf's / mjcf_document's keyword arguments for `module`."""
     com, inertia = peg_mass_properties()
     return dict(
-        peg_file="peg.stl",
-        piece_files=module.piece_files,
+        peg=module.peg,
+        pieces=module.pieces,
         entrance=module.entrance,
         bottom=module.bottom,
         peg_pose=module.design,
@@ -176,7 +171,7 @@ def module_xml(request, tmp_path_factory) -> tuple[SyntheticModule, Path]:
 def test_loads_alone(module_xml) -> None:
     module, path = module_xml
     m = mujoco.MjModel.from_xml_path(str(path))
-    assert m.nbody == 2 and m.njnt == 1 and m.ngeom == len(module.piece_files) + 1
+    assert m.nbody == 2 and m.njnt == 1 and m.ngeom == len(module.pieces) + 1
     assert m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
     assert m.opt.timestep == PhysicsConfig().timestep == 0.005
     assert np.all(m.opt.gravity == 0)
@@ -327,7 +322,7 @@ def good_module(tmp_path_factory) -> SyntheticModule:
 
 
 def _copy(module: SyntheticModule, folder: Path) -> SyntheticModule:
-    shutil.copytree(module.folder, folder)
+    folder.mkdir(parents=True)
     return replace(module, folder=folder)
 
 
@@ -340,55 +335,45 @@ def _assert_nothing_written(module: SyntheticModule, before: bytes | None = None
     assert not list(module.folder.glob(".*tmp*")), "a temporary file was left behind"
 
 
-def test_missing_piece(good_module, tmp_path) -> None:
-    module = _copy(good_module, tmp_path / "m")
-    (module.folder / module.piece_files[3]).unlink()
-    with pytest.raises(ValueError, match=r"collision/piece_003\.stl: file missing"):
-        export(module)
-    _assert_nothing_written(module)
-
-
-def test_corrupt_piece_keeps_the_previous_file(good_module, tmp_path) -> None:
+def test_bad_mesh_keeps_the_previous_file(good_module, tmp_path) -> None:
     module = _copy(good_module, tmp_path / "m")
     before = export(module).read_bytes()
-    piece = module.folder / module.piece_files[0]
-    piece.write_bytes(piece.read_bytes()[:-20])  # truncated
-    with pytest.raises(ValueError, match=r"piece_000\.stl: corrupt STL.*truncated"):
-        export(module)
-    _assert_nothing_written(module, before)
-    piece.write_text("solid ascii\nendsolid\n")  # not a binary STL
-    with pytest.raises(ValueError, match=r"piece_000\.stl: corrupt STL"):
-        export(module)
+    pieces = list(module.pieces)
+    v = pieces[0].vertices.copy()
+    v[0, 2] = np.nan
+    pieces[0] = Mesh(v, pieces[0].faces)
+    with pytest.raises(ValueError, match=r"mesh 'piece_000' needs finite"):
+        export(module, pieces=pieces)
     _assert_nothing_written(module, before)
 
 
 def test_open_piece(good_module, tmp_path) -> None:
     module = _copy(good_module, tmp_path / "m")
-    path = module.folder / module.piece_files[1]
-    mesh = trimesh.load(path, file_type="stl", process=False)
-    holed = trimesh.Trimesh(mesh.vertices, mesh.faces[1:], process=False)  # one triangle less
-    path.write_bytes(holed.export(file_type="stl"))
-    with pytest.raises(ValueError, match=r"piece_001\.stl: not watertight"):
-        export(module)
+    pieces = list(module.pieces)
+    pieces[1] = Mesh(pieces[1].vertices, pieces[1].faces[1:])  # one triangle less
+    with pytest.raises(ValueError, match=r"piece_001: not watertight"):
+        export(module, pieces=pieces)
     _assert_nothing_written(module)
 
 
-def _dented_box() -> trimesh.Trimesh:
+def _dented_box() -> Mesh:
     """A closed, consistently wound box with one corner pushed inwards: not convex."""
     box = trimesh.creation.box(extents=[0.01, 0.01, 0.01])
     v = box.vertices.copy()
     corner = int(np.argmax(v.sum(axis=1)))  # the (+, +, +) corner
     v[corner] *= 0.2  # inside the plane of its three neighbours
-    return trimesh.Trimesh(v, box.faces, process=False)
+    return Mesh(v, np.asarray(box.faces, np.int64))
 
 
-@pytest.mark.parametrize("which", ["piece", "peg"])
+@pytest.mark.parametrize("which", ["piece_002", "peg"])
 def test_non_convex_mesh(good_module, tmp_path, which: str) -> None:
     module = _copy(good_module, tmp_path / "m")
-    name = module.piece_files[2] if which == "piece" else "peg.stl"
-    _write_stl(_dented_box(), module.folder / name)
-    with pytest.raises(ValueError, match=rf"{re.escape(name)}: not convex"):
-        export(module)
+    if which == "peg":
+        kw = {"peg": _dented_box()}
+    else:
+        kw = {"pieces": [*module.pieces[:2], _dented_box(), *module.pieces[3:]]}
+    with pytest.raises(ValueError, match=rf"{which}: not convex"):
+        export(module, **kw)
     _assert_nothing_written(module)
 
 
@@ -400,8 +385,7 @@ def test_non_convex_mesh(good_module, tmp_path, which: str) -> None:
         ({"peg_com": np.array([0.0, np.nan, 0.0])}, "peg_com"),
         ({"bottom": Frame((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))}, "bottom.quat"),
         ({"clearance": -0.001}, "clearance"),
-        ({"piece_files": []}, "piece_files is empty"),
-        ({"peg_file": "/abs/peg.stl"}, "must be relative"),
+        ({"pieces": []}, "pieces is empty"),
         (
             {"contact": PhysicsConfig(integrator="implicitfast", contact_timeconst=0.005)},
             "contact_timeconst >= 2 timestep",
@@ -437,20 +421,17 @@ def test_model_mujoco_refuses_is_named_and_not_written(good_module, tmp_path, mo
     _assert_nothing_written(module)
 
 
-def test_document_from_bytes_in_memory_equals_the_file(good_module, tmp_path) -> None:
-    """The module writer's path (bytes and parsed triangles handed over, nothing read back)
-    gives the bytes write_mjcf writes after reading the mesh files."""
-    from assetgen.core.stl import parse_stl_triangles_mm
-    from assetgen.formats.mjcf import mjcf_document
-
+def test_the_file_holds_the_stored_meshes_and_loads_anywhere(good_module, tmp_path) -> None:
+    """The inline meshes read back as the float32-millimetre meshes (what STL files of them
+    read back as), and the file loads alone from another folder."""
     module = _copy(good_module, tmp_path / "m")
-    written = export(module).read_bytes()
-    names = ["peg.stl", *module.piece_files]
-    data = {n: (module.folder / n).read_bytes() for n in names}
-    doc = mjcf_document(
-        tmp_path / "elsewhere",  # nothing is read from the folder when every mesh is given
-        **document_args(module),
-        written=data,
-        parsed={n: parse_stl_triangles_mm(b, n) for n, b in data.items()},
-    )
-    assert doc == written
+    path = export(module)
+    back = read_inline_meshes(path.read_bytes())
+    want = stored([module.peg, *module.pieces])
+    assert list(back) == ["peg", *(f"piece_{i:03d}" for i in range(len(module.pieces)))]
+    assert all(same_mesh(b, w) for b, w in zip(back.values(), want, strict=True))
+    other = tmp_path / "elsewhere"
+    other.mkdir()
+    moved = other / "any_name.xml"
+    path.rename(moved)
+    assert mujoco.MjModel.from_xml_path(str(moved)).nmesh == len(module.pieces) + 1

@@ -97,7 +97,7 @@ def test_meshes_are_metres_and_frames_sit_on_the_hole_axis(preview_dataset):
         assert abs(hi[2]) < 1e-6
         peg_z = v.peg.vertices[:, 2]
         assert abs(peg_z.min()) < 1e-6 and abs(peg_z.max() - p["peg_height"]) < 1e-6
-        assert v.collision, "collision pieces are shown from the collision/ folder"
+        assert v.collision, "collision pieces are shown from the MJCF"
         for piece in v.collision:
             assert (piece.vertices.min(0) >= lo - 1e-6).all()
             assert (piece.vertices.max(0) <= hi + 1e-6).all()

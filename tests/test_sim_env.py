@@ -213,10 +213,19 @@ def test_missing_or_corrupt_dataset_fails_before_simulating(tmp_path: Path) -> N
     broken = tmp_path / "ds"
     shutil.copytree(sim_dataset(), broken)
     mid = load_dataset(broken)[0].id
-    piece = broken / "modules" / mid / "collision" / "piece_000.stl"
-    piece.write_bytes(piece.read_bytes()[:100])
-    with pytest.raises(AssetError, match=r"piece_000\.stl.*truncated"):
+    mjcf = broken / "modules" / mid / "peg_in_hole.xml"
+    good = mjcf.read_bytes()
+    mjcf.write_bytes(good[: len(good) // 2])  # truncated
+    with pytest.raises(AssetError, match=r"peg_in_hole\.xml: not valid XML"):
         PegInHoleVecEnv(broken)
+    # the peg's faces point past its vertices
+    mjcf.write_bytes(good.replace(b'face="', b'face="999 998 997 ', 1))
+    with pytest.raises(AssetError, match=r"peg_in_hole\.xml: mesh 'peg': face index"):
+        PegInHoleVecEnv(broken)
+    mjcf.unlink()
+    with pytest.raises(AssetError, match=r"peg_in_hole\.xml: missing"):
+        PegInHoleVecEnv(broken)
+    mjcf.write_bytes(good)
     meta = broken / "modules" / mid / "module.json"
     d = json.loads(meta.read_text())
     del d["frames"]

@@ -1,7 +1,8 @@
-"""Collision geometry of a module: convex pieces, written to collision/ and re-checked.
+"""Collision geometry of a module: convex pieces, checked as the simulation files store them.
 
 Whatever made the pieces (the exact decomposition, or CoACD for non-convex holes), they are
-read back from the files and their distance to the seated and the inserting peg is bounded
+rounded as the MJCF and USD files store them (float32 millimetres, assetgen.core.inline_mesh)
+and their distance to the seated and the inserting peg is bounded
 from below by separating planes (a proof; python-fcl measures any piece the planes cannot
 clear): a module whose collision geometry comes nearer the peg than the clearance is refused.
 """
@@ -28,8 +29,8 @@ from assetgen.collision.separating_planes import (
     separation_bounds,
     unit_directions,
 )
+from assetgen.core.inline_mesh import stored
 from assetgen.core.mesh import Mesh, cross3
-from assetgen.core.stl import parse_stl_triangles_mm, stl_bytes_many
 from assetgen.core.timing import step
 from assetgen.formats.context import ExportContext
 from assetgen.geometry.solids import ModuleGeometry
@@ -39,10 +40,6 @@ DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
     "coacd": lambda g: coacd_pieces(g.module),
 }
 """Decomposition methods by name: `exact` for convex holes (ours), `coacd` in general."""
-
-
-def piece_name(i: int) -> str:
-    return f"collision/piece_{i:03d}.stl"
 
 
 def _soup(meshes: list[Mesh]) -> Mesh:
@@ -110,29 +107,22 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
     }
 
 
-def write_collision(ctx: ExportContext, travel: float, method: str = "exact") -> dict:
-    """Decompose, write collision/piece_XXX.stl (mm) and check the pieces as written (their
-    float32 millimetre bytes parsed back); return a record for module.json."""
+def collision_pieces(ctx: ExportContext, travel: float, method: str = "exact") -> dict:
+    """Decompose the module, round the pieces as the files store them and check those; set
+    ctx.pieces to them (the MJCF and USD writers store them, and the MJCF writer checks that
+    they read back unchanged) and return a record for module.json."""
     if method not in DECOMPOSERS:
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
     geom = ctx.geometry
     with step(ctx.times, "collision: decompose"):
         pieces = DECOMPOSERS[method](geom)
-    ctx.pieces = pieces
-    names = [piece_name(i) for i in range(len(pieces))]
-    with step(ctx.times, "collision: write"):
-        tris = [
-            parse_stl_triangles_mm(ctx.write(n, data), n)
-            for n, data in zip(names, stl_bytes_many(pieces), strict=True)
-        ]
-        ctx.parsed.update(zip(names, tris, strict=True))
     with step(ctx.times, "collision: re-check"):
-        stored = [Mesh(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in tris]
-        gaps = check_pieces(stored, geom.peg, geom, travel)
+        ctx.pieces = stored(pieces)
+        gaps = check_pieces(ctx.pieces, geom.peg, geom, travel)
     volume = _volume(pieces)
     record = {
         "method": method,
-        "pieces": names,
+        "pieces": len(pieces),
         "volume_ratio": volume / geom.module_volume,
         **gaps,
     }

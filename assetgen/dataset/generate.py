@@ -48,10 +48,24 @@ Result = tuple[int, dict | None, str | None, StepTimes]
 """(seed, manifest line or None, failure reason or None, step times) of one module."""
 
 
+CRASH_ONCE_ENV = "ASSETGEN_CRASH_ONCE"
+"""Fault injection for the tests: `SEED:FILE` makes the worker that starts module SEED die
+abruptly (os._exit) once, mid-module, if FILE does not exist yet (it creates it first)."""
+
+
 def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
     from assetgen.dataset.module_writer import ModuleFailure, generate_module
 
     seed, config, modules_dir, formats = args
+    crash = os.environ.get(CRASH_ONCE_ENV)
+    if crash and crash.split(":", 1)[0] == str(seed):
+        marker = Path(crash.split(":", 1)[1])
+        if not marker.exists():
+            marker.touch()
+            temp = Path(modules_dir) / f".tmp-{seed:06d}-{os.getpid()}"
+            temp.mkdir(exist_ok=True)
+            (temp / "peg.stl").write_bytes(b"half")  # a half-written module, then gone
+            os._exit(1)
     times: StepTimes = {}
     try:
         rec = generate_module(
@@ -104,6 +118,13 @@ def _info(spec: DatasetSpec, summary: dict | None) -> dict:
     }
 
 
+def _remove_temporaries(root: Path) -> None:
+    import shutil
+
+    for d in (root / "modules").glob(".tmp-*"):
+        shutil.rmtree(d, ignore_errors=True)
+
+
 def _adopt_orphans(root: Path, records: dict[str, dict], wanted: set[str]) -> None:
     """Folders renamed into place by a run killed before its manifest line: take them in.
 
@@ -129,13 +150,35 @@ def generate(
     workers: int | None = None,
     overwrite: bool = False,
     progress: bool = True,
+    ray: str | None = None,
 ) -> RunSummary:
-    """Generate every module of `spec` not yet in `root`; return a summary."""
+    """Generate every module of `spec` not yet in `root`; return a summary.
+
+    ray: None runs the modules in a local process pool of `workers`; an address (HOST:PORT,
+    ray://HOST:PORT or auto) runs them as tasks on that Ray cluster, and "" on a local Ray
+    instance of `workers` CPUs (see assetgen.dataset.ray_backend). An unreachable address is
+    refused before anything is written.
+    """
     # the generator's libraries load here, in this process: a missing one fails at once
-    from assetgen.dataset.module_writer import ModuleFailure, module_id
+    import assetgen.dataset.module_writer  # noqa: F401
 
     spec.validate()
     t0 = time.perf_counter()
+    cluster = None
+    if ray is not None:
+        from assetgen.dataset.ray_backend import connect
+
+        cluster = connect(ray, workers)
+    try:
+        return _generate(root, spec, workers, overwrite, progress, cluster, t0)
+    finally:
+        if cluster is not None:
+            cluster.shutdown()
+
+
+def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSummary:
+    from assetgen.dataset.module_writer import ModuleFailure, module_id
+
     _prepare(root, spec, overwrite)
     manifest = root / "manifest.jsonl"
     records = read_manifest(manifest)
@@ -148,7 +191,8 @@ def generate(
     if todo:
         try:
             with manifest.open("a") as out:
-                for seed, line, reason, times in _run(root, spec, todo, workers, progress):
+                results = _run(root, spec, todo, workers, progress, cluster)
+                for seed, line, reason, times in results:
                     add_times(step_seconds, times)
                     if line is None:
                         failures.append(ModuleFailure(seed, reason or "unknown"))
@@ -164,6 +208,7 @@ def generate(
                 "The finished modules are kept; fix the cause (e.g. free disk space) and run "
                 "the same command again to resume."
             ) from e
+    _remove_temporaries(root)  # of workers killed mid-module (Ray re-ran their modules)
     # Sorted and complete: the manifest of a finished dataset does not depend on run order.
     tmp = manifest.with_name("manifest.jsonl.tmp")
     tmp.write_text("".join(json.dumps(records[m], sort_keys=True) + "\n" for m in sorted(records)))
@@ -211,7 +256,12 @@ def _import_exporters(formats: tuple[str, ...]) -> None:
 
 
 def _run(
-    root: Path, spec: DatasetSpec, seeds: list[int], workers: int | None, progress: bool
+    root: Path,
+    spec: DatasetSpec,
+    seeds: list[int],
+    workers: int | None,
+    progress: bool,
+    cluster=None,
 ) -> Iterator[Result]:
     workers = workers or os.cpu_count() or 1
     jobs = [(s, spec.config.to_json(), str(root / "modules"), spec.formats) for s in seeds]
@@ -227,6 +277,13 @@ def _run(
     )
     with bar:
         task = bar.add_task("modules", total=len(jobs))
+        if cluster is not None:
+            from assetgen.dataset.ray_backend import run_tasks
+
+            for r in run_tasks(cluster, _worker, jobs):
+                bar.advance(task)
+                yield r
+            return
         if workers == 1:
             results = map(_worker, jobs)
             for r in results:

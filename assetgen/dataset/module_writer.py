@@ -117,9 +117,11 @@ def write_module(
         tmp.mkdir(parents=True)
         ctx = ExportContext(tmp, geom, {}, times=times)
         with step(times, "stl+checks"):
+            for name, mesh in (("peg.stl", geom.peg), ("module.stl", geom.module)):
+                ctx.meshes[name] = parse_stl_mm(ctx.write(name, stl_bytes(mesh)), name)
             checks = verify(
-                parse_stl_mm(ctx.write("peg.stl", stl_bytes(geom.peg))),
-                parse_stl_mm(ctx.write("module.stl", stl_bytes(geom.module))),
+                ctx.meshes["peg.stl"],
+                ctx.meshes["module.stl"],
                 geom.design_pose,
                 params.clearance,
                 insertion_travel(geom),

@@ -52,7 +52,7 @@ class Dataset:
         return json.loads((self.module_dir(mid) / "module.json").read_text())
 
     def paths(self, mid: str) -> dict[str, Path]:
-        """Files of module `mid` by role: peg_stl, module_stl, 3mf, usd, mjcf, collision."""
+        """Files of module `mid` by role: module_json, peg_stl, module_stl, 3mf, usd, mjcf."""
         d = self.module_dir(mid)
         return {
             "module_json": d / "module.json",
@@ -61,7 +61,6 @@ class Dataset:
             "3mf": d / "peg_in_hole.3mf",
             "usd": d / "peg_in_hole.usda",
             "mjcf": d / "peg_in_hole.xml",
-            "collision": d / "collision",
         }
 
 

@@ -8,8 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
+from assetgen.core.mesh import Mesh
 from assetgen.core.timing import StepTimes
 from assetgen.geometry.solids import ModuleGeometry
 
@@ -27,11 +26,12 @@ class ExportContext:
     data: dict[str, bytes] = field(default_factory=dict)
     """The bytes of every file written with `write`, by the same path: later checks use
     exactly what is on disk without reading it back."""
-    parsed: dict[str, np.ndarray] = field(default_factory=dict)
-    """Triangles (m, 3, 3) in metres of written STL files parsed back so far, by path: a
-    later step that checks them again does not parse them again."""
-    pieces: list | None = None
-    """The convex collision pieces (module frame, m) once the `collision` step has run."""
+    meshes: dict[str, Mesh] = field(default_factory=dict)
+    """Written STL files as parsed back from their bytes, by path: a later step that uses
+    them again does not parse them again."""
+    pieces: list[Mesh] | None = None
+    """The convex collision pieces (module frame, m) once the `collision` step has run,
+    rounded as the files store them (assetgen.core.inline_mesh.stored) and checked."""
     times: StepTimes | None = None
     """Where steps add their wall times (see assetgen.core.timing), or None: not timed."""
     _dirs: set[str] = field(default_factory=set)

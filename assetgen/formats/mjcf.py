@@ -1,8 +1,9 @@
 """MJCF (MuJoCo) export of one module: static convex pieces, a free peg, frames as sites.
 
-The file `peg_in_hole.xml` sits in the module folder beside `peg.stl` and `collision/`, and
-names them by relative path, so the folder can be moved as a whole. Everything in it is SI
-(metres, kilograms, seconds); the STL files are millimetres and are read with scale 0.001.
+The file `peg_in_hole.xml` is self-contained: the peg and the convex collision pieces are
+inline mesh data (assetgen.core.inline_mesh: the STL files' own float32 millimetre numbers,
+with scale 0.001), so it loads alone, from any folder, in MuJoCo, its viewer or MuJoCo Warp.
+Everything else in it is SI (metres, kilograms, seconds).
 
 - The module is a set of static convex mesh geoms in the worldbody (MuJoCo collides a mesh
   as its convex hull, which is why the module comes as an exact convex decomposition). They
@@ -30,7 +31,7 @@ the physics agents train on.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Sequence
 from pathlib import Path
 
 import mujoco
@@ -38,6 +39,7 @@ import numpy as np
 
 from assetgen.checks.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.core.frames import Frame
+from assetgen.core.inline_mesh import mesh_element, read_inline_meshes, same_mesh, stored
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -47,15 +49,12 @@ from assetgen.core.mujoco_config import (
     velocity_gains,
 )
 from assetgen.core.portable import norm
-from assetgen.core.stl import merge_vertices, parse_stl_triangles_mm
 
-MM = 0.001
-"""Metres per STL unit (the STL files are millimetres)."""
 __all__ = [
     "CONVEX_TOLERANCE",
     "PhysicsConfig",
     "mjcf_document",
-    "read_checked_mesh",
+    "piece_name",
     "write_mjcf",
 ]
 CLEARANCE_NUMERIC = "clearance"
@@ -64,6 +63,7 @@ PEG_BODY = "peg"
 PEG_JOINT = "peg_free"
 PEG_GEOM = "peg"
 SITES = ("entrance", "bottom", "peg_bottom", "origin")
+PEG_MESH = "peg"
 ORIGIN_SITE = "origin"
 """World site at the module origin: the actuators' reference frame (velocities in the module
 frame), as the simulator's `ref_site`."""
@@ -72,51 +72,6 @@ frame), as the simulator's `ref_site`."""
 # ---------------------------------------------------------------------------------------------
 # input checks: everything is checked before anything is written
 # ---------------------------------------------------------------------------------------------
-
-
-def read_checked_mesh(path: Path, name: str, *, convex: bool = True) -> Mesh:
-    """Read a binary millimetre STL as a Mesh (metres) and check it is a closed solid.
-
-    Raises ValueError naming `name` (the path as written in the MJCF) when the file is
-    missing, unreadable or corrupt, not watertight, inconsistently wound, has no positive
-    volume, or (with `convex`) is not convex within CONVEX_TOLERANCE.
-    """
-    (mesh,) = checked_meshes({name: _read(path, name)}, convex=convex)
-    return mesh
-
-
-def checked_meshes(
-    data: Mapping[str, bytes],
-    *,
-    convex: bool = True,
-    parsed: Mapping[str, np.ndarray] | None = None,
-) -> list[Mesh]:
-    """The binary millimetre STL bytes in `data` (by name) as Meshes (metres), each checked to
-    be a closed (and with `convex`, convex) solid, all at once; ValueError names a bad one.
-    `parsed` may hold the triangles of some of them, already parsed from these bytes."""
-    names = list(data)
-    parsed = parsed or {}
-    tris = []
-    for name in names:
-        if name in parsed:
-            tris.append(parsed[name])
-            continue
-        try:
-            tris.append(parse_stl_triangles_mm(data[name], name))
-        except ValueError as e:
-            raise ValueError(f"{name}: corrupt STL: {e}") from None
-    meshes = merge_vertices(tris)
-    check_closed_meshes(meshes, names, convex=convex)
-    return meshes
-
-
-def _read(path: Path, name: str) -> bytes:
-    try:
-        return Path(path).read_bytes()
-    except FileNotFoundError:
-        raise ValueError(f"{name}: file missing (looked for {path})") from None
-    except OSError as e:
-        raise ValueError(f"{name}: cannot be read ({e})") from None
 
 
 def _check_frame(frame: Frame, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -172,14 +127,15 @@ def _vec(v) -> str:
     return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
 
 
-def _xml_attr(text: str) -> str:
-    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
+def piece_name(i: int) -> str:
+    """The mesh and geom name of collision piece `i` in the MJCF."""
+    return f"piece_{i:03d}"
 
 
 def mjcf_text(
     *,
-    peg_file: str,
-    piece_files: list[str],
+    peg: Mesh,
+    pieces: Sequence[Mesh],
     entrance: Frame,
     bottom: Frame,
     peg_pose: Frame,
@@ -203,12 +159,11 @@ def mjcf_text(
         inertia[0, 2],
         inertia[1, 2],
     ]
-    scale = _vec([MM, MM, MM])
     kv_lin, kv_rot = velocity_gains(float(peg_mass), com, inertia, c)
     site_size = _num(max(clearance, 0.5e-3))
     lines = [
         '<mujoco model="peg_in_hole">',
-        "  <!-- assetgen: units m, kg, s; the STL meshes are millimetres (scale 0.001).",
+        "  <!-- assetgen: units m, kg, s; the inline meshes are millimetres (scale 0.001).",
         "       Module frame = world frame; the body `peg` has the peg frame as its frame. -->",
         '  <compiler angle="radian" inertiafromgeom="false"/>',
         *option_xml(c),
@@ -226,10 +181,9 @@ def mjcf_text(
         "    </default>",
         "  </default>",
         "  <asset>",
-        f'    <mesh name="peg" file="{_xml_attr(peg_file)}" scale="{scale}"/>',
+        "    " + mesh_element(PEG_MESH, peg),
     ]
-    for i, f in enumerate(piece_files):
-        lines.append(f'    <mesh name="piece_{i:03d}" file="{_xml_attr(f)}" scale="{scale}"/>')
+    lines += ["    " + mesh_element(piece_name(i), p) for i, p in enumerate(pieces)]
     lines += [
         "  </asset>",
         "  <worldbody>",
@@ -237,13 +191,13 @@ def mjcf_text(
         f'    <site name="bottom" pos="{_vec(bot_pos)}" quat="{_vec(bot_quat)}"/>',
         f'    <site name="{ORIGIN_SITE}" pos="0 0 0"/>',
     ]
-    for i in range(len(piece_files)):
-        lines.append(f'    <geom name="piece_{i:03d}" class="module" mesh="piece_{i:03d}"/>')
+    for i in range(len(pieces)):
+        lines.append(f'    <geom name="{piece_name(i)}" class="module" mesh="{piece_name(i)}"/>')
     lines += [
         f'    <body name="{PEG_BODY}" pos="{_vec(peg_pos)}" quat="{_vec(peg_quat)}">',
         f'      <freejoint name="{PEG_JOINT}"/>',
         f'      <inertial pos="{_vec(com)}" mass="{_num(peg_mass)}" fullinertia="{_vec(full)}"/>',
-        f'      <geom name="{PEG_GEOM}" class="peg" mesh="peg"/>',
+        f'      <geom name="{PEG_GEOM}" class="peg" mesh="{PEG_MESH}"/>',
         '      <site name="peg_bottom" pos="0 0 0"/>',
         "    </body>",
         "  </worldbody>",
@@ -257,8 +211,7 @@ def mjcf_text(
 def write_mjcf(path: Path, **document) -> bytes:
     """Write the module's MJCF to `path` atomically after checking every input.
 
-    path       : the .xml to write; its folder holds the mesh files, which the keyword
-                 arguments (see mjcf_document) name relative to it.
+    path       : the .xml to write (self-contained: it names no other file).
     **document : mjcf_document's arguments.
 
     Raises ValueError as mjcf_document does; nothing is written then. A temporary name in
@@ -266,7 +219,7 @@ def write_mjcf(path: Path, **document) -> bytes:
     name. Returns the bytes written (to hash without reading the file back).
     """
     path = Path(path)
-    data = mjcf_document(path.parent, name=path.name, **document)
+    data = mjcf_document(name=path.name, **document)
     tmp = path.parent / f".{path.stem}.{os.getpid()}.tmp.xml"
     try:
         tmp.write_bytes(data)
@@ -277,10 +230,9 @@ def write_mjcf(path: Path, **document) -> bytes:
 
 
 def mjcf_document(
-    folder: Path,
     *,
-    peg_file: str,
-    piece_files: list[str],
+    peg: Mesh,
+    pieces: Sequence[Mesh],
     entrance: Frame,
     bottom: Frame,
     peg_pose: Frame,
@@ -289,15 +241,12 @@ def mjcf_document(
     peg_inertia: np.ndarray,
     clearance: float,
     contact: PhysicsConfig = PhysicsConfig(),  # noqa: B008 (frozen)
-    written: Mapping[str, bytes] | None = None,
-    parsed: Mapping[str, np.ndarray] | None = None,
     name: str = "the MJCF",
 ) -> bytes:
     """The module's MJCF as bytes, after checking every input and compiling it in MuJoCo.
 
-    folder      : the folder the XML will sit in, which holds the mesh files.
-    peg_file    : peg STL (binary, mm, peg frame), relative to `folder`.
-    piece_files : collision piece STLs (binary, mm, module frame, each convex), relative.
+    peg         : the peg surface (m, peg frame).
+    pieces      : the convex collision pieces (m, module frame).
     entrance, bottom : the module's frames (module frame, m, quat w x y z).
     peg_pose    : initial pose of the peg frame in the module frame.
     peg_mass    : kg.  peg_com: (3,) m, peg frame.  peg_inertia: (3, 3) kg m^2 about the
@@ -305,37 +254,28 @@ def mjcf_document(
     clearance   : m, stored in the file for the physics checks.
     contact     : the MuJoCo configuration (the simulator's; see
                   assetgen.core.mujoco_config.PhysicsConfig).
-    written     : the bytes of mesh files just written, by name (the module writer's): they
-                  are checked and compiled instead of reading the files back, which costs
-                  as much as the checks; files not in it are read.
-    parsed      : their triangles (m, 3, 3) in metres, where already parsed from those
-                  bytes (parse_stl_triangles_mm), so they are not parsed again.
     name        : how error messages name the document.
 
-    Raises ValueError naming the file or value and the problem (missing or corrupt STL, not
-    watertight, not convex, bad frame or mass properties, or a model MuJoCo refuses). The
-    model is compiled from these bytes and the mesh bytes (no file is read twice), so the
-    document returned is one MuJoCo accepts.
+    The meshes are stored as float32 millimetres (assetgen.core.inline_mesh.stored: pass
+    them stored already, as the module writer does, and they are written unchanged). The
+    document is read back, and its meshes must equal the stored ones bit for bit and each be
+    a closed convex solid (MuJoCo collides a mesh as its convex hull); then MuJoCo compiles
+    it. Raises ValueError naming the mesh or value and the problem (not closed, not convex,
+    bad frame or mass properties, or a model MuJoCo refuses).
     """
-    folder = Path(folder)
     contact.validate()
     if not (isinstance(clearance, int | float | np.floating) and 0 < clearance < 0.1):
         raise ValueError(f"clearance = {clearance!r}; expected a gap in metres, 0 < c < 0.1")
-    if not piece_files:
-        raise ValueError("piece_files is empty; the module needs at least one collision piece")
-    if len(set(piece_files)) != len(piece_files):
-        raise ValueError(f"piece_files lists a file twice: {piece_files}")
-    written = written or {}
-    data: dict[str, bytes] = {}
-    for mesh in [peg_file, *piece_files]:
-        if Path(mesh).is_absolute():
-            raise ValueError(f"{mesh}: must be relative to the MJCF's folder {folder}")
-        data[mesh] = written[mesh] if mesh in written else _read(folder / mesh, mesh)
-    # every mesh is a convex solid: MuJoCo collides a mesh as its convex hull
-    checked_meshes(data, convex=True, parsed=parsed)
+    if not pieces:
+        raise ValueError("pieces is empty; the module needs at least one collision piece")
+    for what, m in [("peg", peg), *((piece_name(i), p) for i, p in enumerate(pieces))]:
+        v = np.asarray(m.vertices, dtype=float)
+        if v.ndim != 2 or v.shape[1] != 3 or not np.isfinite(v).all():
+            raise ValueError(f"{name}: mesh {what!r} needs finite (n, 3) vertices in metres")
+    meshes = stored([peg, *pieces])
     text = mjcf_text(
-        peg_file=peg_file,
-        piece_files=piece_files,
+        peg=meshes[0],
+        pieces=meshes[1:],
         entrance=entrance,
         bottom=bottom,
         peg_pose=peg_pose,
@@ -345,12 +285,18 @@ def mjcf_document(
         clearance=float(clearance),
         contact=contact,
     )
+    names = [PEG_MESH, *(piece_name(i) for i in range(len(pieces)))]
+    back = read_inline_meshes(text, name)
+    if list(back) != names or not all(
+        same_mesh(back[n], m) for n, m in zip(names, meshes, strict=True)
+    ):
+        raise ValueError(f"{name}: its inline meshes do not read back as written")
+    # every mesh is a convex solid, checked on what the file holds
+    check_closed_meshes([back[n] for n in names], names, convex=True)
     try:
-        spec = mujoco.MjSpec.from_string(text, assets=data)
-        # The document as written, compiled with MuJoCo's mesh thread pool off: for ~30 small
-        # meshes the threads cost more than they save (compile 4.9 - 6.5 ms against 7.3 -
-        # 8.0 ms a module in one sitting), and a dataset's workers already fill the cores.
-        # The compiled model is the same, array for array.
+        spec = mujoco.MjSpec.from_string(text)
+        # MuJoCo's mesh thread pool off: for ~30 small meshes the threads cost more than they
+        # save, and a dataset's workers already fill the cores. The model is the same.
         spec.compiler.usethread = False
         model = spec.compile()
     except ValueError as e:

@@ -1,14 +1,15 @@
 """The simulation-format exporters, keyed by format name, in writing order.
 
-`collision` (the convex pieces in collision/) runs before any format that needs it. The
-printable files (STL, 3MF) are written by every module; these are the optional ones.
+`collision` (the module's convex pieces, decomposed and checked; it writes no file of its own)
+runs before the formats that store them inline, MJCF and USD. The printable files (STL, 3MF)
+are written by every module; these are the optional ones.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from assetgen.collision.pieces import write_collision
+from assetgen.collision.pieces import collision_pieces
 from assetgen.core.timing import step
 from assetgen.formats.context import ExportContext, Exporter
 from assetgen.geometry.solids import insertion_travel
@@ -19,7 +20,7 @@ MJCF_FILE = "peg_in_hole.xml"
 
 
 def _collision(ctx: ExportContext) -> None:
-    ctx.record["collision"] = write_collision(ctx, insertion_travel(ctx.geometry))
+    ctx.record["collision"] = collision_pieces(ctx, insertion_travel(ctx.geometry))
 
 
 def _usd(ctx: ExportContext) -> None:
@@ -56,13 +57,12 @@ def _write_mjcf(ctx: ExportContext) -> None:
     from assetgen.formats.mjcf import mjcf_document
 
     g, peg = ctx.geometry, ctx.record["peg"]
-    # mjcf_document checks the peg and each piece is closed and convex, and compiles the
-    # model in MuJoCo, all on the bytes just written (and the triangles parsed from them).
-    # The file is written straight: the module folder is renamed into place only when done.
+    # mjcf_document stores the peg and the checked pieces inline, reads them back (they must
+    # be unchanged), checks each is closed and convex and compiles the model in MuJoCo. The
+    # peg is the one just written to peg.stl, as parsed back from its bytes.
     xml = mjcf_document(
-        ctx.folder,
-        peg_file="peg.stl",
-        piece_files=ctx.record["collision"]["pieces"],
+        peg=ctx.meshes["peg.stl"],
+        pieces=ctx.pieces,
         entrance=g.entrance,
         bottom=g.bottom,
         peg_pose=Frame.from_json(ctx.record["frames"]["design_pose"]),
@@ -70,8 +70,6 @@ def _write_mjcf(ctx: ExportContext) -> None:
         peg_com=np.array(peg["com_m"]),
         peg_inertia=np.array(peg["inertia_kg_m2"]),
         clearance=g.params.clearance,
-        written=ctx.data,
-        parsed=ctx.parsed,
         name=MJCF_FILE,
     )
     ctx.write(MJCF_FILE, xml)
@@ -87,10 +85,13 @@ def available_formats() -> tuple[str, ...]:
 
 
 def with_dependencies(formats: tuple[str, ...]) -> tuple[str, ...]:
-    """`formats` in writing order, with `collision` added where a format needs it."""
+    """`formats` in writing order, with `collision` added where a format needs it, and `mjcf`
+    where `collision` is asked for (the pieces are stored in the MJCF)."""
     wanted = set(formats)
     if wanted & NEEDS_COLLISION:
         wanted.add("collision")
+    if "collision" in wanted:
+        wanted.add("mjcf")
     return tuple(f for f in EXPORTERS if f in wanted) + tuple(
         f for f in formats if f not in EXPORTERS
     )
