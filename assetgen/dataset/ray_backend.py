@@ -47,6 +47,13 @@ GCS_PING = "/ray.rpc.NodeInfoGcsService/GetClusterId"
 accepts the connection (another service, a proxy) does not."""
 
 
+def _gcs_answers():
+    import grpc
+
+    c = grpc.StatusCode
+    return {c.UNAUTHENTICATED, c.PERMISSION_DENIED, c.INVALID_ARGUMENT, c.FAILED_PRECONDITION}
+
+
 def probe(address: str) -> None:
     """Refuse, within about CONNECT_TIMEOUT_S, an address where no Ray cluster answers (Ray
     itself would retry for a minute or more). HOST:PORT must answer as a Ray head's GCS;
@@ -80,6 +87,7 @@ def probe(address: str) -> None:
 def _ping_gcs(target: str) -> None:
     import grpc  # a dependency of Ray
 
+    answers = _gcs_answers()
     with grpc.insecure_channel(target) as channel:
         call = channel.unary_unary(
             GCS_PING, request_serializer=lambda _: b"", response_deserializer=lambda b: b
@@ -87,7 +95,11 @@ def _ping_gcs(target: str) -> None:
         try:
             call(None, timeout=CONNECT_TIMEOUT_S)
         except grpc.RpcError as e:
-            raise RuntimeError(f"not a Ray head: {e.code().name}") from None
+            # A GCS that serves the method but wants the cluster's credentials or id first
+            # (Ray 2.5x answers UNAUTHENTICATED) is a Ray head; a server without the method
+            # (UNIMPLEMENTED), or without gRPC (UNAVAILABLE, DEADLINE_EXCEEDED), is not.
+            if e.code() not in answers:
+                raise RuntimeError(f"not a Ray head: {e.code().name}") from None
 
 
 def connect(address: str | None, workers: int | None):
