@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from assetgen.core.frames import Frame
-from assetgen.core.inline_mesh import read_inline_meshes
+from assetgen.core.inline_mesh import module_meshes
 from assetgen.core.mesh import Mesh
 from assetgen.core.rotations import quat_to_matrix
 from assetgen.core.stl import read_stl_mm
@@ -188,8 +188,8 @@ class ModuleView:
             self.body = read_stl_mm(paths["module_stl"])
             # the pieces live inline in the MJCF; a dataset written without it shows none
             mjcf = paths["mjcf"]
-            meshes = read_inline_meshes(mjcf.read_bytes(), str(mjcf)) if mjcf.exists() else {}
-            self.collision = [m for n, m in meshes.items() if n.startswith("piece_")]
+            pieces = module_meshes(mjcf.read_bytes(), str(mjcf))[1] if mjcf.exists() else ()
+            self.collision = list(pieces)
             self.frames = {k: Frame.from_json(v) for k, v in self.info["frames"].items()}
         except (OSError, ValueError, KeyError) as e:
             raise PreviewError(

@@ -14,14 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.core.inline_mesh import read_inline_meshes
+from assetgen.core.inline_mesh import module_meshes
 from assetgen.core.mesh import Mesh
 from assetgen.core.rotations import quat_to_matrix
 
 MJCF_FILE = "peg_in_hole.xml"
 """The module file holding the peg and the collision pieces (inline meshes)."""
-PEG_MESH = "peg"
-PIECE_PREFIX = "piece_"
 
 
 class AssetError(ValueError):
@@ -58,16 +56,9 @@ def read_meshes(data: bytes, name: str) -> tuple[Mesh, tuple[Mesh, ...]]:
     """The peg and the collision pieces held inline in a module's MJCF bytes; AssetError
     naming the file."""
     try:
-        meshes = read_inline_meshes(data, name)
+        return module_meshes(data, name)
     except ValueError as e:
         raise AssetError(f"{e}; regenerate the module (`assetgen check DATASET --repair`)") from e
-    pieces = tuple(m for n, m in meshes.items() if n.startswith(PIECE_PREFIX))
-    if PEG_MESH not in meshes or not pieces:
-        raise AssetError(
-            f"{name}: holds no inline peg mesh or no collision pieces; regenerate the module "
-            "with the `mjcf` format"
-        )
-    return meshes[PEG_MESH], pieces
 
 
 def _frame(d: dict, name: str, where: Path) -> np.ndarray:

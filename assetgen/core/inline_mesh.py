@@ -27,6 +27,15 @@ MM_PER_M = 1000.0
 """The stored unit is the millimetre, as in the STL files."""
 SCALE_ATTR = "0.001 0.001 0.001"
 """The `scale` every inline mesh carries: metres per stored unit."""
+PEG_MESH = "peg"
+"""The peg's mesh name in a module's MJCF."""
+PIECE_PREFIX = "piece_"
+"""Collision piece i is the mesh (and geom) `piece_<i, three digits>`."""
+
+
+def piece_name(i: int) -> str:
+    """The mesh and geom name of collision piece `i` in a module's MJCF."""
+    return f"{PIECE_PREFIX}{i:03d}"
 
 
 def stored(meshes: Sequence[Mesh]) -> list[Mesh]:
@@ -95,6 +104,16 @@ def read_inline_meshes(data: bytes | str, where: str = "the MJCF") -> dict[str, 
             raise ValueError(f"{what}: face index outside 0 .. {nv - 1}")
         meshes[name] = Mesh(v.astype(np.float64).reshape(-1, 3) / MM_PER_M, f.reshape(-1, 3))
     return meshes
+
+
+def module_meshes(data: bytes | str, where: str = "the MJCF") -> tuple[Mesh, tuple[Mesh, ...]]:
+    """A module MJCF's peg and collision pieces (in file order), read as read_inline_meshes
+    reads them; ValueError naming `where` also when the peg or every piece is missing."""
+    meshes = read_inline_meshes(data, where)
+    pieces = tuple(m for n, m in meshes.items() if n.startswith(PIECE_PREFIX))
+    if PEG_MESH not in meshes or not pieces:
+        raise ValueError(f"{where}: holds no inline peg mesh or no collision pieces")
+    return meshes[PEG_MESH], pieces
 
 
 def same_mesh(a: Mesh, b: Mesh) -> bool:

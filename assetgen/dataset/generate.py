@@ -132,10 +132,9 @@ def _adopt_orphans(root: Path, records: dict[str, dict], wanted: set[str]) -> No
     """
     import shutil
 
+    _remove_temporaries(root)
     for d in (root / "modules").iterdir():
-        if d.name.startswith(".tmp-"):
-            shutil.rmtree(d, ignore_errors=True)
-        elif d.name in wanted and d.name not in records:
+        if d.name in wanted and d.name not in records:
             try:
                 rec = json.loads((d / "module.json").read_text())
                 records[d.name] = manifest_line(rec)

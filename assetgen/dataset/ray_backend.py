@@ -7,7 +7,7 @@ driver keeps the manifest, as with the pool; a task writes its module into the d
 which every node must see (a shared file system), through the same temporary folder and
 atomic rename. So:
 - a killed driver leaves finished modules, and the same command resumes;
-- a worker killed mid-module leaves only a temporary folder (removed by the next run);
+- a worker killed mid-module leaves only a temporary folder (removed at the end of the run);
   Ray runs the task again (RETRIES times), and a module whose worker keeps dying is reported
   as failed by its seed, like a module that fails a check.
 
@@ -26,7 +26,8 @@ from assetgen.dataset.spec import DatasetError
 RETRIES = 2
 """Times Ray re-runs a module whose worker died, before it is reported as failed."""
 CONNECT_TIMEOUT_S = 3.0
-"""How long the address may take to accept a TCP connection before the run is refused."""
+"""How long the address may take to accept a TCP connection, and then to answer the GCS
+ping, before the run is refused."""
 IN_FLIGHT_PER_CPU = 4
 """Tasks submitted ahead per cluster CPU: enough to keep every worker busy, few enough that a
 100,000-module run does not hold 100,000 task records in the driver."""

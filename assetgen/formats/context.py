@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,19 +33,14 @@ class ExportContext:
     rounded as the files store them (assetgen.core.inline_mesh.stored) and checked."""
     times: StepTimes | None = None
     """Where steps add their wall times (see assetgen.core.timing), or None: not timed."""
-    _dirs: set[str] = field(default_factory=set)
-    """Sub-folders of `folder` made so far."""
 
     def write(self, name: str, data: bytes) -> bytes:
-        """Write `data` to folder/name and record its hash; return the bytes written.
+        """Write `data` to folder/name (a module folder is flat: six files, no sub-folders) and
+        record its hash; return the bytes written.
 
         Checks parse these returned bytes, exactly what is on disk, rather than reading the
-        file again: on this kind of file system an open costs as much as a whole piece.
+        file again.
         """
-        parent = os.path.dirname(name)
-        if parent and parent not in self._dirs:  # one mkdir per folder, not one per file
-            os.makedirs(self.folder / parent, exist_ok=True)
-            self._dirs.add(parent)
         with open(self.folder / name, "wb") as f:
             f.write(data)
         self.hashes[name] = hashlib.sha256(data).hexdigest()

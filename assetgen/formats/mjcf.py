@@ -39,7 +39,14 @@ import numpy as np
 
 from assetgen.checks.closed_mesh import CONVEX_TOLERANCE, check_closed_meshes
 from assetgen.core.frames import Frame
-from assetgen.core.inline_mesh import mesh_element, read_inline_meshes, same_mesh, stored
+from assetgen.core.inline_mesh import (
+    PEG_MESH,
+    mesh_element,
+    piece_name,
+    read_inline_meshes,
+    same_mesh,
+    stored,
+)
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -63,7 +70,6 @@ PEG_BODY = "peg"
 PEG_JOINT = "peg_free"
 PEG_GEOM = "peg"
 SITES = ("entrance", "bottom", "peg_bottom", "origin")
-PEG_MESH = "peg"
 ORIGIN_SITE = "origin"
 """World site at the module origin: the actuators' reference frame (velocities in the module
 frame), as the simulator's `ref_site`."""
@@ -125,11 +131,6 @@ def _num(x: float) -> str:
 
 def _vec(v) -> str:
     return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
-
-
-def piece_name(i: int) -> str:
-    """The mesh and geom name of collision piece `i` in the MJCF."""
-    return f"piece_{i:03d}"
 
 
 def mjcf_text(
