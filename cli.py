@@ -394,12 +394,19 @@ def build_parser() -> argparse.ArgumentParser:
     # torch (the `rl` extra) is imported when `train` or `report` runs, not here: it would
     # add over a second to every command
     from rl.commands import add_export_parser, add_report_parser, add_train_parser
-    from sim import make_train_env
 
-    add_train_parser(sub, make_train_env, TEACHERS, _probe_env)
+    add_train_parser(sub, _train_env, TEACHERS, _probe_env)
     add_report_parser(sub)
     add_export_parser(sub)
     return p
+
+
+def _train_env(*args, **kwargs):
+    # the simulator (MuJoCo, with its GL bindings: ~0.3 s) is imported when a command uses
+    # it, not by every command's parser: `assetgen sample` is timed whole
+    from sim import make_train_env
+
+    return make_train_env(*args, **kwargs)
 
 
 def _probe_env(dataset: str, modules: int):

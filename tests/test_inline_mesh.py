@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from assetgen.core.inline_mesh import mesh_element, read_inline_meshes, same_mesh, stored
-from assetgen.core.mesh import Mesh
+from assetgen.core.mesh import Mesh, StoredMesh
 from assetgen.core.stl import parse_stl_mm, stl_bytes
 
 
@@ -46,6 +46,22 @@ def test_a_mesh_reads_back_as_its_stl_does(lo, size) -> None:
     back = read_inline_meshes(_document({"m": mesh}))["m"]
     assert same_mesh(back, mesh)
     assert same_mesh(stored([back])[0], mesh)
+
+
+def test_a_stored_mesh_is_passed_through_and_a_moved_one_is_not() -> None:
+    """stored() keeps a StoredMesh (its type says it is rounded and merged already) and
+    rounds anything else, including a stored mesh moved to another frame."""
+    box = _box((0.0, 0.0, 0.0), (0.01, 0.02, 1 / 30))
+    (s,) = stored([box])
+    assert isinstance(s, StoredMesh) and isinstance(parse_stl_mm(stl_bytes(box)), StoredMesh)
+    mixed = stored([s, box])
+    assert mixed[0] is s and mixed[1] is not box and same_mesh(mixed[1], s)
+    shift = np.eye(4)
+    shift[:3, 3] = 1e-4 / 3
+    moved = s.transformed(shift)
+    assert not isinstance(moved, StoredMesh)
+    again = stored([moved])[0]
+    assert not np.array_equal(again.vertices, moved.vertices)  # rounded to float32 mm
 
 
 def test_float32_digits_survive_the_text() -> None:

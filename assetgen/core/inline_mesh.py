@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from assetgen.core.mesh import Mesh
+from assetgen.core.mesh import Mesh, StoredMesh
 from assetgen.core.stl import merge_vertices
 
 MM_PER_M = 1000.0
@@ -38,16 +38,22 @@ def piece_name(i: int) -> str:
     return f"{PIECE_PREFIX}{i:03d}"
 
 
-def stored(meshes: Sequence[Mesh]) -> list[Mesh]:
+def stored(meshes: Sequence[Mesh]) -> list[StoredMesh]:
     """The meshes (metres) as a float32-millimetre file stores them and a reader gets them
     back: each corner rounded to float32 mm, then identical corners merged. The same arrays
-    as writing each to STL and parsing it (parse_stl_mm); idempotent."""
-    if not meshes:
-        return []
-    tris = [
-        (m.vertices[m.faces] * MM_PER_M).astype("<f4").astype(np.float64) / MM_PER_M for m in meshes
-    ]
-    return merge_vertices(tris)
+    as writing each to STL and parsing it (parse_stl_mm); idempotent: a StoredMesh comes back
+    as it is, without the rounding and merging again (~0.5 ms a module)."""
+    out: list[StoredMesh | None] = [m if isinstance(m, StoredMesh) else None for m in meshes]
+    todo = [i for i, m in enumerate(out) if m is None]
+    if todo:
+        tris = [
+            (meshes[i].vertices[meshes[i].faces] * MM_PER_M).astype("<f4").astype(np.float64)
+            / MM_PER_M
+            for i in todo
+        ]
+        for i, m in zip(todo, merge_vertices(tris), strict=True):
+            out[i] = m
+    return out  # type: ignore[return-value]
 
 
 def _vertices_mm(mesh: Mesh) -> np.ndarray:

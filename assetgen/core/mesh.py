@@ -31,6 +31,15 @@ class Mesh:
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
 
 
+@dataclass(frozen=True)
+class StoredMesh(Mesh):
+    """A mesh as a float32-millimetre file stores it and a reader gets it back (corners
+    float32 mm, identical corners merged, vertices in byte order): what
+    assetgen.core.stl.merge_vertices makes of float32 triangles. The type records it, so
+    assetgen.core.inline_mesh.stored passes it through instead of rounding it again.
+    Moving it (`transformed`) gives a plain Mesh."""
+
+
 def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product over the last axis (..., 3): np.cross without its per-call overhead,
     which dominates for the many small arrays of the mesh pipeline."""

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.core.mesh import Mesh, cross3
+from assetgen.core.mesh import Mesh, StoredMesh, cross3
 
 HEADER = b"assetgen binary STL; units: millimetres".ljust(80, b" ")
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
@@ -38,23 +38,24 @@ def stl_bytes_many(meshes: list[Mesh], scale: float = 1000.0) -> list[bytes]:
     return out
 
 
-def read_stl_mm(path: Path) -> Mesh:
+def read_stl_mm(path: Path) -> StoredMesh:
     """Read a binary STL in millimetres back as a Mesh in metres (see parse_stl_mm)."""
     return parse_stl_mm(Path(path).read_bytes(), str(path))
 
 
-def parse_stl_mm(data: bytes, name: str = "STL") -> Mesh:
+def parse_stl_mm(data: bytes, name: str = "STL") -> StoredMesh:
     """Binary STL bytes in millimetres as a Mesh in metres, merging vertices stored with
     identical coordinates (what a slicer or a mesh library does on load)."""
     return merge_vertices([parse_stl_triangles_mm(data, name)])[0]
 
 
-def merge_vertices(tris: list[np.ndarray]) -> list[Mesh]:
-    """Triangle soups (m_i, 3, 3) as Meshes, merging corners stored with identical bytes within
-    each, with one sort for all of them (a module's ~30 pieces would otherwise pay np.unique's
-    fixed cost ~30 times). Vertices come in the order of their bytes, the same for the
-    generator's checks and the simulator. The writers store one sign of zero (see
-    collision.pieces), so coordinates that compare equal have equal bytes."""
+def merge_vertices(tris: list[np.ndarray]) -> list[StoredMesh]:
+    """Triangle soups (m_i, 3, 3) of float32-millimetre corners (in metres: as parsed from
+    an STL, or rounded by inline_mesh.stored) as StoredMeshes, merging corners stored with
+    identical bytes within each, with one sort for all of them (a module's ~30 pieces would
+    otherwise pay np.unique's fixed cost ~30 times). Vertices come in the order of their
+    bytes, the same for the generator's checks and the simulator. The writers store one sign
+    of zero (see collision.pieces), so coordinates that compare equal have equal bytes."""
     counts = np.array([3 * len(t) for t in tris], dtype=np.int64)
     points = np.vstack([t.reshape(-1, 3) for t in tris]) if tris else np.zeros((0, 3))
     owner = np.repeat(np.arange(len(tris), dtype=">u8"), counts)
@@ -71,7 +72,7 @@ def merge_vertices(tris: list[np.ndarray]) -> list[Mesh]:
     stop = np.searchsorted(unique_owner, np.arange(len(tris)), side="right")
     bounds = np.concatenate([[0], np.cumsum(counts)])
     return [
-        Mesh(
+        StoredMesh(
             unique[start[i] : stop[i]],
             (index[bounds[i] : bounds[i + 1]] - start[i]).reshape(-1, 3).astype(np.int64),
         )
