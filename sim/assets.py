@@ -14,12 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.core.inline_mesh import module_meshes
+from assetgen.core.inline_mesh import MJCF_FILE, module_meshes
 from assetgen.core.mesh import Mesh
 from assetgen.core.rotations import quat_to_matrix
-
-MJCF_FILE = "peg_in_hole.xml"
-"""The module file holding the peg and the collision pieces (inline meshes)."""
 
 
 class AssetError(ValueError):

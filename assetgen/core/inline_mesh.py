@@ -27,6 +27,8 @@ MM_PER_M = 1000.0
 """The stored unit is the millimetre, as in the STL files."""
 SCALE_ATTR = "0.001 0.001 0.001"
 """The `scale` every inline mesh carries: metres per stored unit."""
+MJCF_FILE = "peg_in_hole.xml"
+"""A module's MJCF file: it holds the peg and the collision pieces as inline meshes."""
 PEG_MESH = "peg"
 """The peg's mesh name in a module's MJCF."""
 PIECE_PREFIX = "piece_"

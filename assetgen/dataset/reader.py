@@ -12,6 +12,7 @@ import hashlib
 import json
 from pathlib import Path
 
+from assetgen.core.inline_mesh import MJCF_FILE
 from assetgen.dataset.spec import DatasetError, DatasetSpec
 
 
@@ -60,7 +61,7 @@ class Dataset:
             "module_stl": d / "module.stl",
             "3mf": d / "peg_in_hole.3mf",
             "usd": d / "peg_in_hole.usda",
-            "mjcf": d / "peg_in_hole.xml",
+            "mjcf": d / MJCF_FILE,
         }
 
 

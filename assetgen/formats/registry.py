@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 
 from assetgen.collision.pieces import collision_pieces
+from assetgen.core.inline_mesh import MJCF_FILE
 from assetgen.core.timing import step
 from assetgen.formats.context import ExportContext, Exporter
 from assetgen.geometry.solids import insertion_travel
 
 NEEDS_COLLISION = {"mjcf", "usd"}
 USD_FILE = "peg_in_hole.usda"
-MJCF_FILE = "peg_in_hole.xml"
 
 
 def _collision(ctx: ExportContext) -> None:
