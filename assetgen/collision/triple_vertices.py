@@ -11,7 +11,7 @@ many tiny vertex enumerations at once: qhull's HalfspaceIntersection needs an in
 Arithmetic: the same operations as that numpy form, in the same order where numpy's order
 is defined (cross products, Cramer's sums); numpy sums its dot products (einsum) in an order
 it does not fix, so a coordinate may differ in its last bit. The vertices are snapped to a
-20 nm grid afterwards (assetgen.collision.exact.SNAP), which absorbs that: the pieces equal
+20 nm grid afterwards (assetgen.collision.cell_meshes.SNAP), which absorbs that: the pieces equal
 the numpy form's up to the sign of zero, which the decomposition normalises.
 """
 
