@@ -144,3 +144,11 @@ def carve(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[Mesh]:
     slivers below assetgen.collision.cell_meshes.MIN_PIECE_VOLUME are dropped."""
     cells = carve_cells(material, holes)
     return cell_meshes(polytope_vertices_batch(cells))
+
+
+def carve_part(solids: Sequence[np.ndarray], holes: Sequence[np.ndarray]) -> list[Mesh]:
+    """The convex pieces of a part made of convex `solids` with convex `holes` cut from it
+    (same frame): each solid carved by every hole. Pieces of different solids may overlap
+    where the solids do (a simulator's collision geoms may; the files' volume check is
+    then done on the part's mesh, not on a sum of pieces)."""
+    return [m for s in solids for m in carve(s, holes)]
