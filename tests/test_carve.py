@@ -50,8 +50,16 @@ def depth(planes: np.ndarray) -> float:
     n = planes[:, :3] / np.linalg.norm(planes[:, :3], axis=1)[:, None]
     d = planes[:, 3] / np.linalg.norm(planes[:, :3], axis=1)
     a = np.column_stack([n, np.ones(len(n))])
-    res = linprog([0, 0, 0, -1], A_ub=a, b_ub=d, bounds=[(None, None)] * 3 + [(0, 1.0)])
-    return float(res.x[3]) if res.success else 0.0
+    # in millimetres, at HiGHS's tightest tolerances: its default feasibility tolerance
+    # (1e-7) in metres would read a flat face as a ball of tens of nanometres
+    res = linprog(
+        [0, 0, 0, -1],
+        A_ub=a,
+        b_ub=d * 1e3,
+        bounds=[(None, None)] * 3 + [(0, 1e3)],
+        options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
+    )
+    return float(res.x[3]) * 1e-3 if res.success else 0.0
 
 
 def to_manifold(mesh: Mesh) -> m3.Manifold:

@@ -11,8 +11,13 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
+from assetgen.checks.module_checks import CheckError
+from assetgen.checks.step_checks import check_parts, check_steps
 from assetgen.collision.carve import carve_part
+from assetgen.core.inline_mesh import stored
 from assetgen.core.mesh import Mesh, cross3
+from assetgen.core.stl import parse_stl_mm, stl_bytes
+from assetgen.families.part_mesh import part_mesh
 from assetgen.families.profile_bolt import ProfileBoltParams, ProfileBoltSampler, build_profile_bolt
 from assetgen.params.module_params import ParamError
 
@@ -47,7 +52,7 @@ def volume(mesh: Mesh) -> float:
     return float(np.einsum("ij,ij->i", t[:, 0], cross3(t[:, 1], t[:, 2])).sum() / 6.0)
 
 
-def check_steps(params: ProfileBoltParams) -> None:
+def check_geometry(params: ProfileBoltParams) -> None:
     asm = build_profile_bolt(params)
     pieces = {p.name: pieces_in_module(p) for p in (asm.base, *asm.parts)}
     for k, step in enumerate(asm.steps):
@@ -69,12 +74,12 @@ def _axis(step) -> np.ndarray:
 
 @pytest.mark.parametrize("slots", [False, True])
 def test_both_steps_sit_at_their_clearances(slots) -> None:
-    check_steps(replace(ProfileBoltSampler().sample(3), slots=slots))
+    check_geometry(replace(ProfileBoltSampler().sample(3), slots=slots))
 
 
 @pytest.mark.parametrize("seed", range(4))
 def test_sampled_assemblies(seed) -> None:
-    check_steps(ProfileBoltSampler().sample(seed))
+    check_geometry(ProfileBoltSampler().sample(seed))
 
 
 def test_the_base_pieces_tile_the_block_and_plate() -> None:
@@ -120,3 +125,39 @@ def test_parameters_that_collide_are_named(change, named) -> None:
 def test_the_sampler_always_builds() -> None:
     for seed in range(200):
         ProfileBoltSampler().sample(seed).validate()
+
+
+def stored_parts(asm):
+    """Each part's surface and pieces as the files store them (float32 mm STL)."""
+    meshes = {p.name: parse_stl_mm(stl_bytes(part_mesh(p)), p.name) for p in (asm.base, *asm.parts)}
+    pieces = {p.name: stored(carve_part(p.solids, p.holes)) for p in asm.parts}
+    return meshes, pieces
+
+
+@pytest.mark.parametrize("slots", [False, True])
+def test_the_stored_files_pass_the_step_checks(slots) -> None:
+    """On the STL files as written: every part one closed body (the profile with its cross
+    hole has genus 1), and each step's part at its clearance within 1 um, path clear."""
+    asm = build_profile_bolt(replace(ProfileBoltSampler().sample(5), slots=slots))
+    meshes, pieces = stored_parts(asm)
+    parts = check_parts(meshes)
+    assert parts["profile"]["genus"] == 1 and parts["bolt"]["genus"] == 0
+    steps = check_steps(asm, meshes, pieces)
+    assert [s["part"] for s in steps] == ["profile", "bolt"]
+    for s, step in zip(steps, asm.steps, strict=True):
+        assert s["clearance_m"] == pytest.approx(step.clearance, abs=1e-6)
+
+
+def test_a_profile_hole_too_tight_is_refused() -> None:
+    """The checks measure the files: a socket cut for a tighter clearance than the step
+    claims is refused, naming the step."""
+    asm = build_profile_bolt(ProfileBoltSampler().sample(5))
+    meshes, pieces = stored_parts(asm)
+    wrong = replace(asm, steps=(replace(asm.steps[0], clearance=0.3e-3), asm.steps[1]))
+    with pytest.raises(CheckError, match=r"step 1 \(profile\): seated 0\.25"):
+        check_steps(wrong, meshes, pieces)
+    longer = replace(asm, steps=(asm.steps[0], replace(asm.steps[1], travel=1.0)))
+    check_steps(longer, meshes, pieces)  # a longer straight path is still clear...
+    sideways = replace(asm.steps[1], bottom=asm.steps[0].bottom)  # ...but not along z
+    with pytest.raises(CheckError, match=r"step 2 \(bolt\): its straight path"):
+        check_steps(replace(asm, steps=(asm.steps[0], sideways)), meshes, pieces)
