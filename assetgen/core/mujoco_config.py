@@ -238,17 +238,26 @@ def geom_default_xml(physics: PhysicsConfig) -> str:
 
 
 def actuator_xml(
-    site: str, refsite: str, kv_lin: float, kv_rot: float, indent: str = "  "
+    site: str,
+    refsite: str,
+    kv_lin: float,
+    kv_rot: float,
+    indent: str = "  ",
+    prefix: str = "",
+    block: bool = True,
 ) -> list[str]:
     """The six velocity actuators (`<actuator>` block) on `site`, measured against `refsite`
-    (the module origin): force = kv (ctrl - velocity) in the module frame, unclamped."""
-    lines = [f"{indent}<actuator>"]
+    (the module origin): force = kv (ctrl - velocity) in the module frame, unclamped. Named
+    `<prefix>vel0` .. `<prefix>vel5`; `block=False` gives the six lines alone (to put several
+    parts' actuators in one block)."""
+    lines = [f"{indent}<actuator>"] if block else []
     for k in range(6):
         gear = " ".join("1" if j == k else "0" for j in range(6))
         kv = kv_lin if k < 3 else kv_rot
         lines.append(
-            f'{indent}  <velocity name="vel{k}" site="{site}" refsite="{refsite}"'
+            f'{indent}  <velocity name="{prefix}vel{k}" site="{site}" refsite="{refsite}"'
             f' gear="{gear}" kv="{_num(kv)}" ctrllimited="false" forcelimited="false"/>'
         )
-    lines.append(f"{indent}</actuator>")
+    if block:
+        lines.append(f"{indent}</actuator>")
     return lines

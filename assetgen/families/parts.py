@@ -29,12 +29,15 @@ class Part:
     holes  : convex holes cut from every solid, (k, 4) rows each (possibly unbounded).
     pose   : (4, 4) the part frame in the module frame where the part is assembled (for a
              moving part: its design pose, every gap at its clearance).
+    print_turn : (3, 3) rotation of the part frame that prints it without supports (the
+             3MF turns the part by it and rests it on the bed).
     """
 
     name: str
     solids: tuple[np.ndarray, ...]
     holes: tuple[np.ndarray, ...] = ()
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+    print_turn: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 @dataclass(frozen=True)

@@ -234,7 +234,8 @@ def build_profile_bolt(p: ProfileBoltParams) -> Assembly:
     block = box([-half, -half, 0.0], [half, half, height])
     base = Part("base", (plate, block), tuple(profile_hole + bolt_hole))
     profile = Part("profile", profile_solids, tuple(cross_hole), profile_pose)
-    bolt = Part("bolt", (shank, head), (), bolt_pose)
+    # the bolt prints standing on its head
+    bolt = Part("bolt", (shank, head), (), bolt_pose, np.diag([1.0, -1.0, -1.0]))
     up = np.eye(4)
     up[:3, 3] = [0.0, 0.0, BLOCK_FLOOR]
     side_bottom = bolt_pose.copy()

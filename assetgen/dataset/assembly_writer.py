@@ -1,0 +1,143 @@
+"""One assembly from parameters to a finished folder, as module_writer does for a Table I
+module: build, write each part's STL, read them back, check every step on what was written,
+export, rename into place.
+
+A folder `<id>/` holds `module.json`, one `<part>.stl` per part (the base included),
+`assembly.3mf` (every part laid out for printing) and `assembly.xml` (MJCF: the base's pieces
+static, each moving part a free body). Everything is written into a temporary sibling folder
+and renamed only once every check has passed, so a module that fails is never written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+from assetgen import GENERATOR_VERSION
+from assetgen.checks.module_checks import CheckError
+from assetgen.checks.step_checks import check_parts, check_steps
+from assetgen.collision.carve import carve_part
+from assetgen.core.inline_mesh import stored
+from assetgen.core.stl import parse_stl_mm, stl_bytes
+from assetgen.core.timing import StepTimes, step
+from assetgen.dataset.module_writer import (
+    PEG_MASS,
+    ModuleFailure,
+    _round,
+    module_id,
+    write_json,
+)
+from assetgen.families.part_mesh import part_mesh
+from assetgen.families.parts import Assembly
+from assetgen.formats.assembly_3mf import assembly_3mf_bytes
+from assetgen.formats.assembly_mjcf import assembly_mjcf
+from assetgen.geometry.mass import mass_properties
+from assetgen.params.module_params import ParamError
+
+THREEMF_FILE = "assembly.3mf"
+MJCF_FILE = "assembly.xml"
+
+
+def _frame_json(matrix) -> dict:
+    from assetgen.core.frames import Frame
+
+    return Frame.from_matrix(matrix).to_json()
+
+
+def write_assembly(
+    family: str,
+    params,
+    assembly: Assembly,
+    seed: int,
+    modules_dir: Path,
+    times: StepTimes | None = None,
+) -> dict:
+    """Check and write `assembly` (built from `params` of `family`) into
+    `modules_dir/<id>/`; return its module.json. Raises ModuleFailure, leaving nothing
+    behind, when a check fails."""
+    mid = module_id(seed)
+    final = modules_dir / mid
+    tmp = modules_dir / f".tmp-{mid}-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    parts = (assembly.base, *assembly.parts)
+    try:
+        tmp.mkdir(parents=True)
+        hashes: dict[str, str] = {}
+
+        def write(name: str, data: bytes) -> bytes:
+            (tmp / name).write_bytes(data)
+            hashes[name] = hashlib.sha256(data).hexdigest()
+            return data
+
+        meshes = {}
+        with step(times, "stl"):
+            for p in parts:
+                name = f"{p.name}.stl"
+                meshes[p.name] = parse_stl_mm(write(name, stl_bytes(part_mesh(p))), name)
+        with step(times, "collision: decompose"):
+            pieces = {p.name: stored(carve_part(p.solids, p.holes)) for p in parts}
+        with step(times, "checks"):
+            checks = {
+                "parts": check_parts(meshes),
+                "steps": check_steps(assembly, meshes, pieces),
+            }
+        with step(times, "mass"):
+            mass = {}
+            for p in assembly.parts:
+                _, com, inertia = mass_properties(meshes[p.name], PEG_MASS)
+                mass[p.name] = (PEG_MASS, com, inertia)
+        with step(times, "3mf"):
+            write(
+                THREEMF_FILE,
+                assembly_3mf_bytes([(p.name, meshes[p.name], p.print_turn) for p in parts]),
+            )
+        with step(times, "mjcf"):
+            write(MJCF_FILE, assembly_mjcf(assembly, pieces, mass, name=MJCF_FILE))
+        record = {
+            "id": mid,
+            "seed": seed,
+            "family": family,
+            "generator_version": GENERATOR_VERSION,
+            "params": params.to_json(),
+            "steps": [
+                {
+                    "part": s.part,
+                    "clearance": s.clearance,
+                    "entrance": s.entrance.to_json(),
+                    "bottom": s.bottom.to_json(),
+                    "design_pose": _frame_json(assembly.part(s.part).pose),
+                    "travel_m": s.travel,
+                }
+                for s in assembly.steps
+            ],
+            "parts": {
+                p.name: {
+                    "pieces": len(pieces[p.name]),
+                    **(
+                        {
+                            "mass_kg": mass[p.name][0],
+                            "com_m": [float(v) for v in mass[p.name][1]],
+                            "inertia_kg_m2": mass[p.name][2].tolist(),
+                        }
+                        if p.name in mass
+                        else {}
+                    ),
+                }
+                for p in parts
+            },
+            "checks": checks,
+            "files": dict(sorted(hashes.items())),
+        }
+        with step(times, "module.json"):
+            write_json(tmp / "module.json", _round(record))
+        os.replace(tmp, final)
+        return record
+    except (ParamError, CheckError, ValueError) as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ModuleFailure(seed, str(e)) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
