@@ -32,6 +32,7 @@ def _err(msg: str) -> int:
 
 def _sample_spec(args: argparse.Namespace):
     from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
+    from assetgen.families.registry import family
     from assetgen.formats.registry import available_formats
     from assetgen.params.sampler import SamplerConfig
 
@@ -50,12 +51,23 @@ def _sample_spec(args: argparse.Namespace):
         raise DatasetError(f"--n {args.n}: ask for at least 1 module")
     if args.seed < 0:
         raise DatasetError(f"--seed {args.seed}: seeds are non-negative integers")
-    config = SamplerConfig()
+    try:
+        fam = family(args.family)
+    except ValueError as e:
+        raise DatasetError(str(e)) from None
+    config = fam.sampler()
     if args.clearance_mm is not None:
-        config = replace(config, clearance=args.clearance_mm / 1000.0)
+        # the clearance of the family's first step (Table I's only one; the profile's)
+        key = "clearance" if isinstance(config, SamplerConfig) else "profile_clearance"
+        config = replace(config, **{key: args.clearance_mm / 1000.0})
     formats = tuple(args.formats.split(",")) if args.formats else available_formats()
     spec = DatasetSpec(
-        name=Path(args.out).name, seed_start=args.seed, count=args.n, config=config, formats=formats
+        name=Path(args.out).name,
+        seed_start=args.seed,
+        count=args.n,
+        config=config,
+        formats=formats,
+        family=fam.name,
     )
     return Path(args.out), spec
 
@@ -301,7 +313,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0, help="first module seed (default 0)")
     s.add_argument("--out", help="dataset folder to write")
     s.add_argument("--dataset", help="a spec name from datasets/ (train, test) or a dataset folder")
-    s.add_argument("--clearance-mm", type=float, help="clearance in mm (default 1.0)")
+    s.add_argument(
+        "--family",
+        default="peg-in-hole",
+        help="what to generate: peg-in-hole (Table I, default) or profile-bolt (a profile "
+        "into a socket, then a bolt from the side)",
+    )
+    s.add_argument(
+        "--clearance-mm",
+        type=float,
+        help="clearance in mm (default: peg-in-hole 1.0; profile-bolt's profile 0.25)",
+    )
     s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
     s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     s.add_argument("--overwrite", action="store_true", help="replace a dataset of another spec")

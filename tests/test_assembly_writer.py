@@ -95,3 +95,38 @@ def test_a_failing_assembly_leaves_nothing(tmp_path) -> None:
     with pytest.raises(ModuleFailure, match=r"step 1 \(profile\)"):
         write_assembly("profile-bolt", params, wrong, 2, tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_profile_bolt_dataset_through_the_pipeline(tmp_path) -> None:
+    """`assetgen sample --family profile-bolt`: the spec names its family, the modules are
+    assemblies, a re-run is cached with the same hash, and Table I specs keep their form."""
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.reader import Dataset
+    from assetgen.dataset.spec import DatasetError, DatasetSpec
+    from assetgen.families.profile_bolt import ProfileBoltSampler
+
+    spec = DatasetSpec("pb", 10, 2, ProfileBoltSampler(), family="profile-bolt")
+    first = generate(tmp_path / "pb", spec, workers=1, progress=False)
+    assert first.generated == 2 and not first.failures
+    assert first.clearance_min_m == pytest.approx(0.25e-3, abs=1e-6)
+    assert first.clearance_max_m == pytest.approx(0.5e-3, abs=1e-6)
+    again = generate(tmp_path / "pb", spec, workers=1, progress=False)
+    assert again.cached == 2 and again.content_hash == first.content_hash
+    ds = Dataset(tmp_path / "pb")
+    assert ds.spec.family == "profile-bolt" and ds.module_json("000010")["family"] == "profile-bolt"
+    assert "family" not in DatasetSpec("t", 0, 1).to_json()
+    # `assetgen check` re-runs the step checks on the files, and finds a damaged one
+    from assetgen.dataset.check import check_dataset
+
+    assert check_dataset(tmp_path / "pb").ok
+    stl = tmp_path / "pb" / "modules" / "000011" / "profile.stl"
+    data = bytearray(stl.read_bytes())
+    data[200] ^= 0xFF
+    stl.write_bytes(bytes(data))
+    assert check_dataset(tmp_path / "pb").corrupt == {
+        "000011": "profile.stl does not match its hash"
+    }
+    with pytest.raises(DatasetError, match=r"unknown family 'nope'; valid families"):
+        DatasetSpec.from_json({"name": "x", "seed_start": 0, "count": 1, "family": "nope"})
+    with pytest.raises(DatasetError, match=r"family 'profile-bolt' samples with a Profile"):
+        DatasetSpec("x", 0, 1, family="profile-bolt").validate()

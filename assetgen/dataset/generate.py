@@ -21,7 +21,6 @@ from assetgen.core.atomic_file import write_dataset_json as write_json
 from assetgen.core.timing import StepTimes, add_times
 from assetgen.dataset.reader import content_hash, manifest_line, read_manifest
 from assetgen.dataset.spec import DatasetError, DatasetSpec
-from assetgen.params.sampler import SamplerConfig
 
 if TYPE_CHECKING:
     from assetgen.dataset.module_writer import ModuleFailure
@@ -53,10 +52,12 @@ CRASH_ONCE_ENV = "ASSETGEN_CRASH_ONCE"
 abruptly (os._exit) once, mid-module, if FILE does not exist yet (it creates it first)."""
 
 
-def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
-    from assetgen.dataset.module_writer import ModuleFailure, generate_module
+def _worker(args: tuple[int, dict, str, tuple[str, ...], str]) -> Result:
+    from assetgen.dataset.module_writer import ModuleFailure
+    from assetgen.families.registry import family
 
-    seed, config, modules_dir, formats = args
+    seed, config, modules_dir, formats, family_name = args
+    fam = family(family_name)
     crash = os.environ.get(CRASH_ONCE_ENV)
     if crash and crash.split(":", 1)[0] == str(seed):
         marker = Path(crash.split(":", 1)[1])
@@ -68,9 +69,7 @@ def _worker(args: tuple[int, dict, str, tuple[str, ...]]) -> Result:
             os._exit(1)
     times: StepTimes = {}
     try:
-        rec = generate_module(
-            seed, SamplerConfig.from_json(config), Path(modules_dir), formats, times
-        )
+        rec = fam.write(seed, fam.sampler.from_json(config), Path(modules_dir), formats, times)
         return seed, manifest_line(rec), None, times
     except ModuleFailure as e:
         return seed, None, e.reason, times
@@ -212,7 +211,9 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
     tmp = manifest.with_name("manifest.jsonl.tmp")
     tmp.write_text("".join(json.dumps(records[m], sort_keys=True) + "\n" for m in sorted(records)))
     os.replace(tmp, manifest)
-    gaps = [r["checks"]["clearance_m"] for r in records.values()]
+    from assetgen.families.registry import family
+
+    gaps = [g for r in records.values() for g in family(spec.family).gaps(r)]
     summary = RunSummary(
         total=len(wanted),
         cached=cached,
@@ -238,14 +239,18 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
     return summary
 
 
-def _import_exporters(formats: tuple[str, ...]) -> None:
+def _import_exporters(formats: tuple[str, ...], family: str = "peg-in-hole") -> None:
     """Import what the exporters import lazily (MuJoCo, USD) and load the compiled
     decomposition kernel (numba: ~0.9 s to import, ~0.4 s to load) before forking, so the
     workers share them instead of each paying for them on its first module."""
     from assetgen.collision.triple_vertices import warm_up
     from assetgen.formats.registry import with_dependencies  # registers the formats
 
-    if "collision" in with_dependencies(formats):
+    if family != "peg-in-hole":  # an assembly's writer, with its decomposition and MJCF
+        import assetgen.dataset.assembly_writer
+
+        warm_up()
+    elif "collision" in with_dependencies(formats):
         warm_up()
 
     if "mjcf" in formats:
@@ -263,7 +268,9 @@ def _run(
     cluster=None,
 ) -> Iterator[Result]:
     workers = workers or os.cpu_count() or 1
-    jobs = [(s, spec.config.to_json(), str(root / "modules"), spec.formats) for s in seeds]
+    jobs = [
+        (s, spec.config.to_json(), str(root / "modules"), spec.formats, spec.family) for s in seeds
+    ]
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     bar = Progress(
@@ -289,7 +296,7 @@ def _run(
                 bar.advance(task)
                 yield r
             return
-        _import_exporters(spec.formats)
+        _import_exporters(spec.formats, spec.family)
         with get_context("fork").Pool(workers) as pool:
             for r in pool.imap_unordered(_worker, jobs, chunksize=4):
                 bar.advance(task)

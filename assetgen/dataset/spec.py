@@ -10,10 +10,11 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from assetgen.families.registry import DEFAULT_FAMILY, family
 from assetgen.params.module_params import ParamError
 from assetgen.params.sampler import SamplerConfig
 
-SPEC_KEYS = {"name", "seed_start", "count", "config", "formats"}
+SPEC_KEYS = {"name", "seed_start", "count", "config", "formats", "family"}
 DEFAULT_FORMATS = ("mjcf", "usd")
 SPECS_DIR = Path(__file__).resolve().parents[2] / "datasets"
 
@@ -33,15 +34,27 @@ class DatasetSpec:
     count: int
     """Number of modules."""
     config: SamplerConfig = field(default_factory=SamplerConfig)
-    """Table I sampling ranges."""
+    """The family's sampling ranges (Table I's SamplerConfig for peg-in-hole)."""
     formats: tuple[str, ...] = DEFAULT_FORMATS
-    """Simulation formats written besides STL and 3MF."""
+    """Simulation formats written besides STL and 3MF (peg-in-hole; an assembly writes its
+    MJCF and 3MF always)."""
+    family: str = DEFAULT_FAMILY
+    """What the modules are (assetgen.families.registry): `peg-in-hole` or `profile-bolt`."""
 
     def validate(self) -> DatasetSpec:
         if not isinstance(self.count, int) or self.count < 1:
             raise DatasetError(f"count = {self.count!r}: a dataset needs at least 1 module")
         if not isinstance(self.seed_start, int) or self.seed_start < 0:
             raise DatasetError(f"seed_start = {self.seed_start!r} must be a non-negative integer")
+        try:
+            sampler = family(self.family).sampler
+        except ValueError as e:
+            raise DatasetError(str(e)) from None
+        if not isinstance(self.config, sampler):
+            raise DatasetError(
+                f"config is a {type(self.config).__name__}; family {self.family!r} samples "
+                f"with a {sampler.__name__}"
+            )
         self.config.validate()
         return self
 
@@ -50,13 +63,16 @@ class DatasetSpec:
         return range(self.seed_start, self.seed_start + self.count)
 
     def to_json(self) -> dict:
-        return {
+        out = {
             "name": self.name,
             "seed_start": self.seed_start,
             "count": self.count,
             "config": self.config.to_json(),
             "formats": list(self.formats),
         }
+        if self.family != DEFAULT_FAMILY:  # Table I specs keep their earlier form
+            out["family"] = self.family
+        return out
 
     @staticmethod
     def from_json(d: dict, source: str = "spec") -> DatasetSpec:
@@ -69,14 +85,16 @@ class DatasetSpec:
         if missing:
             raise DatasetError(f"{source}: missing key(s) {missing}")
         try:
+            fam = family(d.get("family", DEFAULT_FAMILY))
             return DatasetSpec(
                 name=d["name"],
                 seed_start=d["seed_start"],
                 count=d["count"],
-                config=SamplerConfig.from_json(d.get("config", {})),
+                config=fam.sampler.from_json(d.get("config", {})),
                 formats=tuple(d.get("formats", DEFAULT_FORMATS)),
+                family=fam.name,
             ).validate()
-        except ParamError as e:
+        except (ParamError, ValueError) as e:
             raise DatasetError(f"{source}: {e}") from e
 
 

@@ -14,7 +14,7 @@ the bolt's tip), z along the part towards its back. Every length is in metres.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -275,6 +275,49 @@ class ProfileBoltSampler:
     engagement: tuple[float, float] = (0.3, 0.6)
     profile_clearance: float = 0.25e-3
     bolt_clearance: float = 0.5e-3
+
+    @property
+    def clearance(self) -> float:
+        """The first step's clearance (the profile's), m: what a dataset lists as its own."""
+        return self.profile_clearance
+
+    def validate(self) -> ProfileBoltSampler:
+        """Ranges are two finite numbers, low <= high, and both corners build."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, tuple) and not (
+                len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1]
+            ):
+                raise ParamError(
+                    f"sampler range {f.name} = {v} must be two finite numbers, low <= high"
+                )
+        if not 0.0 <= self.slot_probability <= 1.0:
+            raise ParamError(f"slot_probability = {self.slot_probability} must be in [0, 1]")
+        for corner in (0, 1):
+            probe = replace(
+                self,
+                **{f.name: (getattr(self, f.name)[corner],) * 2 for f in fields(self)
+                   if isinstance(getattr(self, f.name), tuple)},
+            )  # fmt: skip
+            try:
+                probe.sample(0).validate()
+            except ParamError as e:
+                raise ParamError(f"sampler range reaches an unbuildable assembly: {e}") from e
+        return self
+
+    def to_json(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @staticmethod
+    def from_json(d: dict) -> ProfileBoltSampler:
+        names = {f.name for f in fields(ProfileBoltSampler)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ParamError(
+                f"unknown profile-bolt sampler key(s) {unknown}; valid: {sorted(names)}"
+            )
+        kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return ProfileBoltSampler(**kw).validate()
 
     def sample(self, seed: int) -> ProfileBoltParams:
         """The parameters of `seed` (numpy's PCG64, drawn in a fixed order). The profile
