@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from assetgen.dataset.assembly_writer import MJCF_FILE, THREEMF_FILE, write_assembly
+from assetgen.dataset.assembly_writer import MJCF_FILE, THREEMF_FILE, USD_FILE, write_assembly
 from assetgen.dataset.module_writer import ModuleFailure
 from assetgen.families.profile_bolt import ProfileBoltSampler, build_profile_bolt
 
@@ -31,7 +31,7 @@ def test_the_folder_holds_every_part_and_the_steps(written) -> None:
     folder, _, _ = written
     names = sorted(p.name for p in folder.iterdir())
     assert names == sorted(
-        ["module.json", "base.stl", "profile.stl", "bolt.stl", THREEMF_FILE, MJCF_FILE]
+        ["module.json", "base.stl", "profile.stl", "bolt.stl", THREEMF_FILE, MJCF_FILE, USD_FILE]
     )
     meta = json.loads((folder / "module.json").read_text())
     assert meta["family"] == "profile-bolt"
@@ -60,6 +60,34 @@ def test_the_mjcf_loads_alone_with_a_free_body_per_moving_part(written, tmp_path
         mujoco.mj_step(model, data)
     drop = model.body("profile").pos[2] - data.xpos[model.body("profile").id][2]
     assert 0.2e-3 < drop < 0.35e-3
+
+
+def test_the_usd_holds_a_rigid_body_per_moving_part(written) -> None:
+    """The stage reads back (Sdf writes the same text), each moving part is a rigid body
+    with its mass at its design pose, and every piece is a convex-hull collider."""
+    from pxr import Sdf, Usd, UsdGeom, UsdPhysics
+
+    folder, record, _ = written
+    text = (folder / USD_FILE).read_text()
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    assert layer.ImportFromString(text) and layer.ExportToString() == text
+    stage = Usd.Stage.Open(layer)
+    assert UsdGeom.GetStageUpAxis(stage) == "Z" and UsdGeom.GetStageMetersPerUnit(stage) == 1
+    for part in ("profile", "bolt"):
+        prim = stage.GetPrimAtPath(f"/assembly/{part}")
+        assert prim.HasAPI(UsdPhysics.RigidBodyAPI)
+        assert UsdPhysics.MassAPI(prim).GetMassAttr().Get() == pytest.approx(0.2)
+        pose = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(0)
+        step = next(s for s in record["steps"] if s["part"] == part)
+        assert np.allclose(np.array(pose)[3, :3], step["design_pose"]["pos"], atol=1e-12)
+    assert not stage.GetPrimAtPath("/assembly/base").HasAPI(UsdPhysics.RigidBodyAPI)
+    for name, info in record["parts"].items():
+        pieces = stage.GetPrimAtPath(f"/assembly/{name}/pieces").GetChildren()
+        assert len(pieces) == info["pieces"]
+        assert all(
+            UsdPhysics.MeshCollisionAPI(p).GetApproximationAttr().Get() == "convexHull"
+            for p in pieces
+        )
 
 
 def test_the_3mf_lays_every_part_on_the_bed_apart(written) -> None:

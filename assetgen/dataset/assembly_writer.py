@@ -3,9 +3,10 @@ module: build, write each part's STL, read them back, check every step on what w
 export, rename into place.
 
 A folder `<id>/` holds `module.json`, one `<part>.stl` per part (the base included),
-`assembly.3mf` (every part laid out for printing) and `assembly.xml` (MJCF: the base's pieces
-static, each moving part a free body). Everything is written into a temporary sibling folder
-and renamed only once every check has passed, so a module that fails is never written.
+`assembly.3mf` (every part laid out for printing), `assembly.xml` (MJCF: the base's pieces
+static, each moving part a free body) and `assembly.usda` (the same for Isaac Sim).
+Everything is written into a temporary sibling folder and renamed only once every check has
+passed, so a module that fails is never written.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from assetgen.params.module_params import ParamError
 
 THREEMF_FILE = "assembly.3mf"
 MJCF_FILE = "assembly.xml"
+USD_FILE = "assembly.usda"
 
 
 def _frame_json(matrix) -> dict:
@@ -96,6 +98,10 @@ def write_assembly(
             )
         with step(times, "mjcf"):
             write(MJCF_FILE, assembly_mjcf(assembly, pieces, mass, name=MJCF_FILE))
+        with step(times, "usd"):
+            from assetgen.formats.assembly_usd import assembly_usda
+
+            write(USD_FILE, assembly_usda(assembly, meshes, pieces, mass).encode())
         record = {
             "id": mid,
             "seed": seed,
