@@ -13,29 +13,20 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shutil
 from pathlib import Path
 
 from assetgen import GENERATOR_VERSION
-from assetgen.checks.module_checks import CheckError
 from assetgen.checks.step_checks import check_parts, check_steps
 from assetgen.collision.carve import carve_part
 from assetgen.core.inline_mesh import stored
 from assetgen.core.stl import parse_stl_mm, stl_bytes
 from assetgen.core.timing import StepTimes, step
-from assetgen.dataset.module_writer import (
-    PEG_MASS,
-    ModuleFailure,
-    _round,
-    module_id,
-    write_json,
-)
+from assetgen.dataset.module_writer import PEG_MASS, _round, module_id, staged, write_json
 from assetgen.families.part_mesh import part_mesh
 from assetgen.families.parts import Assembly
 from assetgen.formats.assembly_3mf import assembly_3mf_bytes
 from assetgen.formats.assembly_mjcf import assembly_mjcf
 from assetgen.geometry.mass import mass_properties
-from assetgen.params.module_params import ParamError
 
 THREEMF_FILE = "assembly.3mf"
 MJCF_FILE = "assembly.xml"
@@ -61,11 +52,8 @@ def write_assembly(
     behind, when a check fails."""
     mid = module_id(seed)
     final = modules_dir / mid
-    tmp = modules_dir / f".tmp-{mid}-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
     parts = (assembly.base, *assembly.parts)
-    try:
+    with staged(modules_dir, seed) as tmp:
         tmp.mkdir(parents=True)
         hashes: dict[str, str] = {}
 
@@ -141,9 +129,3 @@ def write_assembly(
             write_json(tmp / "module.json", _round(record))
         os.replace(tmp, final)
         return record
-    except (ParamError, CheckError, ValueError) as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise ModuleFailure(seed, str(e)) from e
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

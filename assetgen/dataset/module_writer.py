@@ -10,6 +10,8 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from assetgen import GENERATOR_VERSION
@@ -89,6 +91,26 @@ def generate_module(
     return write_module(params, seed, modules_dir, formats, times)
 
 
+@contextmanager
+def staged(modules_dir: Path, seed: int) -> Iterator[Path]:
+    """The temporary sibling folder module `seed` is written into (the caller makes it, and
+    renames it into place when done). If the block raises, the folder is removed; a failed
+    check or a refused geometry (ParamError, CheckError, ValueError) becomes ModuleFailure."""
+    tmp = modules_dir / f".tmp-{module_id(seed)}-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    try:
+        yield tmp
+    except (ParamError, CheckError, ValueError) as e:
+        # ValueError: an exporter refused the generated geometry (e.g. a collision piece
+        # that is not a closed convex solid); the module is reported, never written.
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ModuleFailure(seed, str(e)) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
 def write_module(
     params: ModuleParams,
     seed: int,
@@ -108,10 +130,7 @@ def write_module(
         raise ValueError(f"unknown export format(s) {unknown}; valid: {sorted(EXPORTERS)}")
     mid = module_id(seed)
     final = modules_dir / mid
-    tmp = modules_dir / f".tmp-{mid}-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    try:
+    with staged(modules_dir, seed) as tmp:
         with step(times, "build"):
             geom = build_module(params)
         tmp.mkdir(parents=True)
@@ -155,11 +174,3 @@ def write_module(
         with step(times, "rename"):
             os.replace(tmp, final)
         return record
-    except (ParamError, CheckError, ValueError) as e:
-        # ValueError: an exporter refused the generated geometry (e.g. a collision piece
-        # that is not a closed convex solid); the module is reported, never written.
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise ModuleFailure(seed, str(e)) from e
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

@@ -22,6 +22,7 @@ from assetgen.core.frames import Frame
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.params.module_params import ParamError
+from assetgen.params.sampler import config_from_json, config_to_json
 
 PLATE_SIZE = 0.15
 """Plate side, m (as Table I's)."""
@@ -306,18 +307,11 @@ class ProfileBoltSampler:
         return self
 
     def to_json(self) -> dict:
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        return config_to_json(self)
 
     @staticmethod
     def from_json(d: dict) -> ProfileBoltSampler:
-        names = {f.name for f in fields(ProfileBoltSampler)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            raise ParamError(
-                f"unknown profile-bolt sampler key(s) {unknown}; valid: {sorted(names)}"
-            )
-        kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
-        return ProfileBoltSampler(**kw).validate()
+        return config_from_json(ProfileBoltSampler, d, "profile-bolt sampler").validate()
 
     def sample(self, seed: int) -> ProfileBoltParams:
         """The parameters of `seed` (numpy's PCG64, drawn in a fixed order). The profile

@@ -19,12 +19,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import mujoco
 import numpy as np
 
-from assetgen.checks.closed_mesh import check_closed_meshes
 from assetgen.core.frames import Frame
-from assetgen.core.inline_mesh import mesh_element, read_inline_meshes, same_mesh, stored
+from assetgen.core.inline_mesh import mesh_element, stored
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -34,7 +32,7 @@ from assetgen.core.mujoco_config import (
     velocity_gains,
 )
 from assetgen.families.parts import Assembly
-from assetgen.formats.mjcf import ORIGIN_SITE, _check_mass, _num, _vec
+from assetgen.formats.mjcf import ORIGIN_SITE, _check_mass, _num, _vec, verified_model
 
 BASE = "base"
 
@@ -126,20 +124,9 @@ def assembly_mjcf(
         )  # fmt: skip
     lines += ["  </worldbody>", "  <actuator>", *actuators, "  </actuator>", "</mujoco>", ""]
     text = "\n".join(lines)
-    names = [mesh_name(p, i) for p in order for i in range(len(meshes[p]))]
-    flat = [m for p in order for m in meshes[p]]
-    back = read_inline_meshes(text, name)
-    if list(back) != names or not all(
-        same_mesh(back[n], m) for n, m in zip(names, flat, strict=True)
-    ):
-        raise ValueError(f"{name}: its inline meshes do not read back as written")
-    check_closed_meshes([back[n] for n in names], names, convex=True)
-    try:
-        spec = mujoco.MjSpec.from_string(text)
-        spec.compiler.usethread = False
-        model = spec.compile()
-    except ValueError as e:
-        raise ValueError(f"{name}: MuJoCo refuses the model: {e}") from None
+    model = verified_model(
+        text, {mesh_name(p, i): m for p in order for i, m in enumerate(meshes[p])}, name
+    )
     for part in assembly.parts:
         body = model.body(part.name)
         if np.abs(body.pos - part.pose[:3, 3]).max() > 1e-12:

@@ -287,23 +287,29 @@ def mjcf_document(
         contact=contact,
     )
     names = [PEG_MESH, *(piece_name(i) for i in range(len(pieces)))]
+    model = verified_model(text, dict(zip(names, meshes, strict=True)), name)
+    _check_compiled(model, peg_pose)
+    return text.encode("utf-8")
+
+
+def verified_model(text: str, meshes: dict[str, Mesh], name: str) -> mujoco.MjModel:
+    """Check an MJCF document holding `meshes` inline (stored, by name, in file order) and
+    compile it: its meshes must read back bit for bit and each be a closed convex solid
+    (MuJoCo collides a mesh as its convex hull), then MuJoCo must accept the model.
+    ValueError naming `name` and the mesh or the problem otherwise."""
     back = read_inline_meshes(text, name)
-    if list(back) != names or not all(
-        same_mesh(back[n], m) for n, m in zip(names, meshes, strict=True)
-    ):
+    if list(back) != list(meshes) or not all(same_mesh(back[n], m) for n, m in meshes.items()):
         raise ValueError(f"{name}: its inline meshes do not read back as written")
     # every mesh is a convex solid, checked on what the file holds
-    check_closed_meshes([back[n] for n in names], names, convex=True)
+    check_closed_meshes(list(back.values()), list(back), convex=True)
     try:
         spec = mujoco.MjSpec.from_string(text)
         # MuJoCo's mesh thread pool off: for ~30 small meshes the threads cost more than they
         # save, and a dataset's workers already fill the cores. The model is the same.
         spec.compiler.usethread = False
-        model = spec.compile()
+        return spec.compile()
     except ValueError as e:
         raise ValueError(f"{name}: MuJoCo refuses the model: {e}") from None
-    _check_compiled(model, peg_pose)
-    return text.encode("utf-8")
 
 
 def _check_compiled(model: mujoco.MjModel, peg_pose: Frame) -> None:

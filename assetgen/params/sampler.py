@@ -87,18 +87,26 @@ class SamplerConfig:
         )
 
     def to_json(self) -> dict:
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        return config_to_json(self)
 
     @staticmethod
     def from_json(d: dict) -> SamplerConfig:
-        names = {f.name for f in fields(SamplerConfig)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            raise ParamError(
-                f"unknown sampler config key(s) {unknown}; valid keys: {sorted(names)}"
-            )
-        kw = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
-        return SamplerConfig(**kw).validate()
+        return config_from_json(SamplerConfig, d, "sampler config").validate()
+
+
+def config_to_json(config) -> dict:
+    """A sampler config dataclass as JSON: its (low, high) ranges as lists."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config).items()}
+
+
+def config_from_json(cls: type, d: dict, what: str):
+    """`cls` (a sampler config dataclass) from JSON, lists back to tuples; ParamError naming
+    `what` and the valid keys for an unknown key. The caller validates."""
+    names = {f.name for f in fields(cls)}
+    unknown = sorted(set(d) - names)
+    if unknown:
+        raise ParamError(f"unknown {what} key(s) {unknown}; valid keys: {sorted(names)}")
+    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
 
 
 def sample_params(config: SamplerConfig, seed: int) -> ModuleParams:
