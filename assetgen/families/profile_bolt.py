@@ -157,8 +157,8 @@ class ProfileBoltParams:
 
 def profile_section(side: float, slots: bool) -> list[tuple[tuple[float, float], ...]]:
     """The profile's cross-section as axis-aligned rectangles ((x0, y0), (x1, y1)) whose
-    union is the section: the square, or with a T-slot in each face a core square, two
-    corner blocks and two lips per corner (17 rectangles, overlapping)."""
+    union is the section: the square, or with a T-slot in each face a core square, and a
+    corner square and two lips per corner (13 rectangles, overlapping)."""
     a = side / 2
     if not slots:
         return [((-a, -a), (a, a))]
@@ -167,8 +167,7 @@ def profile_section(side: float, slots: bool) -> list[tuple[tuple[float, float],
     c0 = a - dn - dc
     rects = [((-c0, -c0), (c0, c0))]
     quadrant = [
-        ((c0, wc), (a, a)),  # corner block beside the +x slot's channel
-        ((wc, c0), (a, a)),  # corner block beside the +y slot's channel
+        ((wc, wc), (a, a)),  # the corner square between the +x and +y slots' channels
         ((a - dn, wn), (a, wc)),  # the +x slot's lip over its channel
         ((wn, a - dn), (wc, a)),  # the +y slot's lip
     ]
