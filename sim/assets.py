@@ -47,6 +47,9 @@ class ModuleAsset:
     """(3, 3) peg inertia about its centre of mass in the peg frame, kg m^2."""
     pieces: tuple[Mesh, ...]
     """Convex collision pieces in the module frame; their union is the module."""
+    peg_pieces: tuple[Mesh, ...] = ()
+    """Convex pieces whose union is the peg (peg frame), for a part that is not convex (an
+    assembly's profile or bolt): one geom each. Empty: the peg is convex and is its geom."""
 
 
 def read_meshes(data: bytes, name: str) -> tuple[Mesh, tuple[Mesh, ...]]:

@@ -145,7 +145,12 @@ class BatchSim:
             group_of = {str(i): g for i, g in enumerate(groups)}
             key_of = {id(m): str(i) for i, m in enumerate(self.models)}
         names = ["peg"] if k == 1 else [f"e{j}_peg" for j in range(k)]
-        self.peg_geom = np.array([self.models[e // k].geom(names[e % k]).id for e in range(n)])
+        bodies = [self.models[e // k].body(names[e % k]) for e in range(n)]
+        self.peg_geom = np.array([int(b.geomadr[0]) for b in bodies])
+        """Per env: the id of its peg's first geom (a peg that is not convex has several,
+        with consecutive ids)."""
+        self.peg_ngeom = np.array([int(b.geomnum[0]) for b in bodies])
+        """Per env: how many geoms its peg has."""
 
         # the per-thread MjData: from the model with the most BVH nodes, padded with inert
         # geoms up to the largest geom count
@@ -231,8 +236,9 @@ class BatchSim:
         solref = contact_solref(dampratio, self.task.physics)
         for j, e in enumerate(np.asarray(idx)):
             m = self.models[self.shard_of[e]]
-            m.geom_friction[self.peg_geom[e], 0] = friction[j]
-            m.geom_solref[self.peg_geom[e]] = solref[j]
+            g = slice(self.peg_geom[e], self.peg_geom[e] + self.peg_ngeom[e])
+            m.geom_friction[g, 0] = friction[j]
+            m.geom_solref[g] = solref[j]
 
     def contact_params(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-env peg friction (num_envs,) and solref (num_envs, 2), as set last."""
@@ -243,8 +249,9 @@ class BatchSim:
     def set_contact_params(self, friction: np.ndarray, solref: np.ndarray) -> None:
         """Restore what `contact_params` returned."""
         for e, (s, g) in enumerate(self._peg_refs()):
-            self.models[s].geom_friction[g, 0] = friction[e]
-            self.models[s].geom_solref[g] = solref[e]
+            geoms = slice(g, g + self.peg_ngeom[e])
+            self.models[s].geom_friction[geoms, 0] = friction[e]
+            self.models[s].geom_solref[geoms] = solref[e]
 
     def _peg_refs(self) -> list[tuple[int, int]]:
         return list(zip(self.shard_of.tolist(), self.peg_geom.tolist(), strict=True))
@@ -261,7 +268,8 @@ class BatchSim:
             raise ValueError(f"module {module_id!r} was not given to this BatchSim")
         m = copy.copy(self.pool[module_id])
         self.models[e] = m
-        self.peg_geom[e] = m.geom("peg").id
+        self.peg_geom[e] = int(m.body("peg").geomadr[0])
+        self.peg_ngeom[e] = int(m.body("peg").geomnum[0])
 
     # ------------------------------------------------------------------ stepping
 
@@ -309,8 +317,8 @@ class BatchSim:
         m, d = self.models[self.shard_of[i]], self._scratch
         mujoco.mj_setState(m, d, self.shard_state[self.shard_of[i]], STATE_SPEC)
         mujoco.mj_forward(m, d)
-        g = self.peg_geom[i]
-        mine = [c for c in range(d.ncon) if g in (d.contact[c].geom1, d.contact[c].geom2)]
+        peg = range(self.peg_geom[i], self.peg_geom[i] + self.peg_ngeom[i])
+        mine = [c for c in range(d.ncon) if d.contact[c].geom1 in peg or d.contact[c].geom2 in peg]
         dist = np.array([d.contact[c].dist for c in mine])
         force = np.zeros(len(mine))
         f6 = np.zeros(6)

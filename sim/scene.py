@@ -102,7 +102,12 @@ def add_environment(
     ref.name = f"{prefix}{REF_SITE}"
     ref.pos = list(offset)
 
-    _add_mesh(spec, f"{prefix}peg", asset.peg.vertices, asset.peg.faces)
+    # a convex peg is one geom; a part that is not convex is one geom per convex piece,
+    # `peg` then `peg_1`, `peg_2`, ... (contiguous ids: BatchSim sets them together)
+    shapes = asset.peg_pieces or (asset.peg,)
+    geom_names = [f"{prefix}peg"] + [f"{prefix}peg_{i}" for i in range(1, len(shapes))]
+    for name, shape in zip(geom_names, shapes, strict=True):
+        _add_mesh(spec, name, shape.vertices, shape.faces)
     body = spec.worldbody.add_body()
     body.name = f"{prefix}peg"
     body.pos = [offset[0], offset[1], offset[2] + 0.2]
@@ -119,17 +124,18 @@ def add_environment(
         inertia[1, 2],
     ]
     body.add_freejoint().name = f"{prefix}peg_free"
-    g = body.add_geom()
-    g.name = f"{prefix}peg"
-    g.type = mujoco.mjtGeom.mjGEOM_MESH
-    g.meshname = f"{prefix}peg"
-    g.contype = collision_bit
-    g.conaffinity = 0
-    g.priority = 1
-    g.condim = 3
-    g.friction = geom_friction(physics)
-    g.solref = solref
-    g.solimp = solimp
+    for name in geom_names:
+        g = body.add_geom()
+        g.name = name
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = name
+        g.contype = collision_bit
+        g.conaffinity = 0
+        g.priority = 1
+        g.condim = 3
+        g.friction = geom_friction(physics)
+        g.solref = solref
+        g.solimp = solimp
     site = body.add_site()
     site.name = f"{prefix}{PEG_SITE}"
 
