@@ -171,6 +171,14 @@ class PegInHoleVecEnv:
         self.hole_radius = self._mod["hole_radius"][rows]
         self._frames = self._mod_frames[rows]
         self._entrance_quat = self._mod_entrance_quat[rows]
+        # Actions are velocities in the entrance frame. A Table I entrance is the module's
+        # axes, so its actions pass as they are (bit for bit); an assembly step's entrance
+        # may be turned (the bolt goes in along -x), so an agent trained on Table I inserts
+        # it unchanged.
+        turn = self.entrance[:, :3, :3]
+        self._act_turn = (
+            None if np.array_equal(turn, np.broadcast_to(np.eye(3), turn.shape)) else turn
+        )
 
     def _rotate(self, idx: np.ndarray) -> None:
         """Envs idx hand their modules to the back of the queue and take the front ones."""
@@ -292,6 +300,9 @@ class PegInHoleVecEnv:
         act_e, noise = (e[:n], e[n:]) if e is not None else (self._no_noise, self._no_noise)
         velocity = np.empty((n, T.ACT_DIM))
         self._k.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
+        if self._act_turn is not None:
+            velocity[:, :3] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, :3])
+            velocity[:, 3:] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, 3:])
         unstable = self.sim.step(velocity)
         self.global_step += n
         self._steps += 1
