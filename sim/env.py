@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from assetgen.core.rotations import matrix_to_quat
+from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim import task as T
 from sim.assets import ModuleAsset, load_dataset
 from sim.batch import BatchSim
@@ -179,6 +179,19 @@ class PegInHoleVecEnv:
         self._act_turn = (
             None if np.array_equal(turn, np.broadcast_to(np.eye(3), turn.shape)) else turn
         )
+        # The failure rule measures heights from the module's z = 0 plane, Table I's mounting
+        # surface. An env whose entrance is not on that plane with the module's axes (an
+        # assembly step) is scored with its poses and frames in its entrance frame, so the
+        # rule measures from the surface its part enters; observation, reward and success
+        # are relative poses and do not change. Table I envs are scored as before.
+        flat = np.all(turn == np.eye(3), axis=(1, 2)) & (self.entrance[:, 2, 3] == 0.0)
+        self._local = np.flatnonzero(~flat)
+        self._scored = None
+        if len(self._local):
+            entrance, bottom = self.entrance.copy(), self.bottom.copy()
+            entrance[self._local] = np.eye(4)
+            bottom[self._local] = self.entrance_inv[self._local] @ self.bottom[self._local]
+            self._scored = (T.ObsFrames.of(entrance, bottom), bottom)
 
     def _rotate(self, idx: np.ndarray) -> None:
         """Envs idx hand their modules to the back of the queue and take the front ones."""
@@ -310,10 +323,16 @@ class PegInHoleVecEnv:
         reward = np.empty(n)
         success = np.empty(n, dtype=bool)
         failure = np.empty(n, dtype=bool)
-        f = self._frames
+        f, bottom, state = self._frames, self.bottom, self.sim.state
+        if self._scored is not None:
+            f, bottom = self._scored
+            state = state.copy()
+            i, e = self._local, self.entrance[self._local]
+            state[i, 1:4] = np.einsum("nji,nj->ni", e[:, :3, :3], state[i, 1:4] - e[:, :3, 3])
+            state[i, 4:8] = quat_mul(quat_conj(self._entrance_quat[i]), state[i, 4:8])
         self._k.score(
-            self.sim.state, unstable, noise, cfg.noise, f.rows, f.origin_in, f.bottom_pos,
-            f.bottom_quat_conj, self.bottom, self.peg_vertices, self.hole_radius,
+            state, unstable, noise, cfg.noise, f.rows, f.origin_in, f.bottom_pos,
+            f.bottom_quat_conj, bottom, self.peg_vertices, self.hole_radius,
             self.peg_reach, self._d0, self._c_prev, self._return, self._obs,
             self._score_params, obs, reward, success, failure,
         )  # fmt: skip

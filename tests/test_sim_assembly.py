@@ -66,20 +66,11 @@ def test_the_expert_inserts_a_slotted_profile_only_as_its_pieces(slotted) -> Non
 
 
 def test_the_expert_inserts_the_bolt_sideways_with_actions_in_the_entrance_frame(slotted):
-    """Step 2's entrance is turned (the bolt goes in along -x): actions are velocities in
-    the entrance frame, so the expert written for Table I inserts the bolt through the block
-    and the profile's cross hole. Spawns here stay within 2 cm of the axis and 45 degrees of
-    its direction: the task's full ranges swing the bolt, spawned beyond the plate's edge,
-    below z = 0, and the failure rule still measures from z = 0 (the Table I mounting
-    surface), not from the step's entrance plane (issue 21, still to do)."""
+    """Step 2's entrance is turned (the bolt goes in along -x, from spawns anywhere in the
+    task's ranges about that frame): actions are velocities in the entrance frame and the
+    failure rule measures from the entrance plane, so the expert written for Table I inserts
+    the bolt through the block and the profile's cross hole every time."""
     stage = load_stage(slotted, 1)
     assert not np.allclose(stage.entrance[:3, :3], np.eye(3))
-    env_cfg = replace(EVAL_CONFIG, spawn_xy=0.02, spawn_max_angle=np.pi / 4)
-    env = PegInHoleVecEnv([stage] * 2, num_envs=2, config=env_cfg)
-    obs, seen, times = env.reset(seed=1), collections.Counter(), []
-    for _ in range(1500):
-        obs, _, term, trunc, info = env.step(EXPERTS["scripted"](obs))
-        for e in np.flatnonzero(term | trunc):
-            seen["success" if info["success"][e] else "other"] += 1
-            times.append(info["time_to_success"][e])
-    assert seen["success"] >= 8 and seen["other"] == 0
+    seen = outcomes(stage)
+    assert seen["success"] >= 8 and set(seen) == {"success"}
