@@ -14,13 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from assetgen.core.inline_mesh import read_inline_meshes
+from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
 from assetgen.core.stl import read_stl_mm
 from sim.assets import AssetError, ModuleAsset, _frame, _read
-
-ASSEMBLY_MJCF = "assembly.xml"
-"""The assembly's MJCF (assetgen.dataset.assembly_writer.MJCF_FILE; named here so the
-simulator does not import the generator)."""
 
 
 def load_stage(
@@ -44,18 +40,15 @@ def load_stage(
         inertia = np.asarray(info["inertia_kg_m2"], float).reshape(3, 3)
     except (json.JSONDecodeError, KeyError, IndexError, TypeError, ValueError) as e:
         raise AssetError(f"{meta_path}: not an assembly with a step {step} ({e})") from e
-    inline = read_inline_meshes(_read(d / ASSEMBLY_MJCF), str(d / ASSEMBLY_MJCF))
+    inline = read_inline_meshes(_read(d / ASSEMBLY_MJCF_FILE), str(d / ASSEMBLY_MJCF_FILE))
 
-    def pieces_of(name: str):
-        return [m for k, m in inline.items() if k.rsplit("_", 1)[0] == name]
-
-    statics = list(pieces_of("base"))
+    statics = list(part_pieces(inline, "base"))
     for earlier in steps[:step]:
         name = earlier["part"]
         pose = (placed or {}).get(name)
         if pose is None:
             pose = _frame(earlier["design_pose"], "design_pose", meta_path)
-        statics += [m.transformed(pose) for m in pieces_of(name)]
+        statics += [m.transformed(pose) for m in part_pieces(inline, name)]
     return ModuleAsset(
         id=f"{meta.get('id', d.name)}/{part}",
         clearance=float(s["clearance"]),
@@ -66,5 +59,5 @@ def load_stage(
         peg_com=com,
         peg_inertia=inertia,
         pieces=tuple(statics),
-        peg_pieces=tuple(pieces_of(part)),
+        peg_pieces=tuple(part_pieces(inline, part)),
     )

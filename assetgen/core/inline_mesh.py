@@ -29,6 +29,8 @@ SCALE_ATTR = "0.001 0.001 0.001"
 """The `scale` every inline mesh carries: metres per stored unit."""
 MJCF_FILE = "peg_in_hole.xml"
 """A module's MJCF file: it holds the peg and the collision pieces as inline meshes."""
+ASSEMBLY_MJCF_FILE = "assembly.xml"
+"""An assembly's MJCF file: every part's convex pieces as inline meshes `<part>_<i>`."""
 PEG_MESH = "peg"
 """The peg's mesh name in a module's MJCF."""
 PIECE_PREFIX = "piece_"
@@ -122,6 +124,17 @@ def module_meshes(data: bytes | str, where: str = "the MJCF") -> tuple[Mesh, tup
     if PEG_MESH not in meshes or not pieces:
         raise ValueError(f"{where}: holds no inline peg mesh or no collision pieces")
     return meshes[PEG_MESH], pieces
+
+
+def part_piece_name(part: str, i: int) -> str:
+    """The mesh and geom name of convex piece `i` of `part` in an assembly's MJCF."""
+    return f"{part}_{i:03d}"
+
+
+def part_pieces(meshes: dict[str, Mesh], part: str) -> list[Mesh]:
+    """The pieces of `part` among an assembly MJCF's inline meshes (read_inline_meshes), in
+    file order."""
+    return [m for name, m in meshes.items() if name.rsplit("_", 1)[0] == part]
 
 
 def same_mesh(a: Mesh, b: Mesh) -> bool:

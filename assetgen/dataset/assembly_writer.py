@@ -18,6 +18,7 @@ from pathlib import Path
 from assetgen import GENERATOR_VERSION
 from assetgen.checks.step_checks import check_parts, check_steps
 from assetgen.collision.carve import carve_part
+from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE as MJCF_FILE
 from assetgen.core.inline_mesh import stored
 from assetgen.core.stl import parse_stl_mm, stl_bytes
 from assetgen.core.timing import StepTimes, step
@@ -29,7 +30,6 @@ from assetgen.formats.assembly_mjcf import assembly_mjcf
 from assetgen.geometry.mass import mass_properties
 
 THREEMF_FILE = "assembly.3mf"
-MJCF_FILE = "assembly.xml"
 USD_FILE = "assembly.usda"
 
 

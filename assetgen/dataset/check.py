@@ -69,16 +69,16 @@ def _check_assembly(folder: Path, meta: dict) -> str | None:
     """The step checks again, on the files: the parts' STLs, the moving parts' pieces as
     the MJCF holds them, and the steps and poses rebuilt from the stored parameters."""
     from assetgen.checks.step_checks import check_parts, check_steps
-    from assetgen.core.inline_mesh import read_inline_meshes
-    from assetgen.dataset.assembly_writer import MJCF_FILE
+    from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
     from assetgen.families.profile_bolt import ProfileBoltParams, build_profile_bolt
 
     try:
         assembly = build_profile_bolt(ProfileBoltParams.from_json(meta["params"]))
         names = [p.name for p in (assembly.base, *assembly.parts)]
         meshes = {n: read_stl_mm(folder / f"{n}.stl") for n in names}
-        inline = read_inline_meshes((folder / MJCF_FILE).read_bytes(), MJCF_FILE)
-        pieces = {n: [m for k, m in inline.items() if k.rsplit("_", 1)[0] == n] for n in names}
+        mjcf = folder / ASSEMBLY_MJCF_FILE
+        inline = read_inline_meshes(mjcf.read_bytes(), ASSEMBLY_MJCF_FILE)
+        pieces = {n: part_pieces(inline, n) for n in names}
         check_parts(meshes)
         check_steps(assembly, meshes, pieces)
     except (CheckError, ValueError) as e:

@@ -246,11 +246,10 @@ def _import_exporters(formats: tuple[str, ...], family: str = "peg-in-hole") -> 
     from assetgen.collision.triple_vertices import warm_up
     from assetgen.formats.registry import with_dependencies  # registers the formats
 
-    if family != "peg-in-hole":  # an assembly's writer, with its decomposition and MJCF
+    assembly = family != "peg-in-hole"
+    if assembly:  # an assembly's writer, with its decomposition and MJCF
         import assetgen.dataset.assembly_writer
-
-        warm_up()
-    elif "collision" in with_dependencies(formats):
+    if assembly or "collision" in with_dependencies(formats):
         warm_up()
 
     if "mjcf" in formats:

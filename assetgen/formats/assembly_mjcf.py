@@ -23,6 +23,7 @@ import numpy as np
 
 from assetgen.core.frames import Frame
 from assetgen.core.inline_mesh import mesh_element, stored
+from assetgen.core.inline_mesh import part_piece_name as mesh_name
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -35,11 +36,6 @@ from assetgen.families.parts import Assembly
 from assetgen.formats.mjcf import ORIGIN_SITE, _check_mass, _num, _vec, verified_model
 
 BASE = "base"
-
-
-def mesh_name(part: str, i: int) -> str:
-    """Mesh and geom name of piece `i` of `part`."""
-    return f"{part}_{i:03d}"
 
 
 def _frame_attrs(frame: Frame) -> str:
