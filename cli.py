@@ -226,6 +226,7 @@ def _eval_hooks():
     from sim import make_eval_env
     from sim.expert import EXPERTS
     from sim.recording import EpisodeRecorder, env_labels
+    from sim.sequence import evaluate_assembly_dataset, is_assembly_dataset
 
     def random_agent(seed: int):
         rng = np.random.default_rng(seed)
@@ -240,6 +241,8 @@ def _eval_hooks():
         labels=env_labels,
         recorder=EpisodeRecorder,
         policies={**dict.fromkeys(EXPERTS, "deterministic"), "random": "stochastic"},
+        is_sequence=is_assembly_dataset,
+        run_sequence=evaluate_assembly_dataset,
     )
 
 

@@ -279,6 +279,11 @@ class EvalHooks:
     """(folder, limit) -> a recorder of episodes (rl/evaluate.py's Recorder)."""
     policies: dict[str, str] = field(default_factory=dict)
     """Built-in agent -> "deterministic" or "stochastic" (what its actions are)."""
+    is_sequence: Callable[[str], bool] | None = None
+    """dataset -> whether it holds assemblies, played stage by stage by `run_sequence`."""
+    run_sequence: Callable[..., dict[str, Any]] | None = None
+    """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=,
+    progress=) -> results per stage and for the whole sequence (sim/sequence.py)."""
 
 
 def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
@@ -297,7 +302,11 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     try:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
+        sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
+        if sequence and record is not None:
+            raise ValueError("--record: recording is for peg-in-hole datasets, not assemblies")
         reset = None
+        wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
         if run is not None:
             import torch
 
@@ -312,17 +321,22 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 agent, meta = load_agent(run, getattr(args, "device", None))
             except CheckpointError as e:
                 raise ValueError(str(e)) from e
-            env = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
-            base = env
-            if meta["stack"] > 1:
-                env = StackObs(env, meta["stack"])
-            if env.obs_dim != meta["obs_dim"]:
-                raise ValueError(
-                    f"{run}: the checkpoint's policy takes observations of {meta['obs_dim']} "
-                    f"values ({meta['stack']} stacked), but this env gives {env.obs_dim} "
-                    f"({base.obs_dim} per step, stacked {meta['stack']}): evaluate it on the "
-                    "task it was trained on"
-                )
+
+            def wrap(base: Any) -> Any:
+                """Stack as in training; refuse a policy of another observation size."""
+                env = StackObs(base, meta["stack"]) if meta["stack"] > 1 else base
+                if env.obs_dim != meta["obs_dim"]:
+                    raise ValueError(
+                        f"{run}: the checkpoint's policy takes observations of "
+                        f"{meta['obs_dim']} values ({meta['stack']} stacked), but this env "
+                        f"gives {env.obs_dim} ({base.obs_dim} per step, stacked "
+                        f"{meta['stack']}): evaluate it on the task it was trained on"
+                    )
+                return env
+
+            if not sequence:
+                base = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
+                env = wrap(base)
             policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
             reset = reset_hook(agent)
             head: dict[str, Any] = {
@@ -342,10 +356,22 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 )
             if stochastic:
                 raise ValueError("--stochastic applies to --checkpoint policies only")
-            env = base = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
+            if not sequence:
+                env = base = hooks.make_env(
+                    args.dataset, args.envs, args.seed, noise_scale=noise_scale
+                )
             policy = hooks.agents[args.agent](args.seed)
             head = {"agent": args.agent, "policy": hooks.policies.get(args.agent, "deterministic")}
             name = args.agent
+        if sequence:
+            assert hooks.run_sequence is not None
+            res = hooks.run_sequence(
+                args.dataset, policy, args.episodes, seed=args.seed, reset=reset, wrap=wrap,
+                noise_scale=noise_scale,
+            )  # fmt: skip
+            return _sequence_out(args, {**head, "dataset": str(args.dataset),
+                                        "attempts": args.episodes, "seed": args.seed, **res},
+                                 name)  # fmt: skip
         recorder = None
         if record is not None:
             if hooks.recorder is None:
@@ -393,6 +419,50 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         ("mean return", f"{res['mean_return']:.3f}"),
         ("wall time", f"{res['seconds']:.1f} s"),
     ]
+    width = max(len(k) for k, _ in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}")
+    return 0
+
+
+def _sequence_out(args: argparse.Namespace, res: dict[str, Any], name: str) -> int:
+    """Write and print an assembly dataset's evaluation: each stage, then the sequence."""
+    import numpy as np
+
+    out = getattr(args, "out", None)
+    if out is not None:
+        from assetgen.core.atomic_file import strict_json, write_json
+
+        write_json(out, strict_json(res))
+    if args.json:
+        print(json.dumps(res))
+        return 0
+
+    def times(tts: list[float]) -> str:
+        if not tts:
+            return "-"
+        q = np.percentile(tts, [10, 50, 90])
+        return f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"
+
+    rows = [
+        ("agent", f"{name}, {res['policy']} actions"),
+        ("dataset", f"{res['dataset_folder']} ({res['dataset_hash'][:16]}), {res['family']}"),
+        ("attempts", f"{res['assemblies']} assemblies x {res['attempts']}"),
+    ]
+    for k, st in enumerate(res["stages"]):
+        gap = ", ".join(f"{1e3 * c:g}" for c in st["clearance_m"])
+        rows.append((
+            f"stage {k + 1}: {st['part']} ({gap} mm)",
+            f"{100 * st['success_rate']:.2f} % of {st['episodes']} episodes "
+            f"(failed {100 * st['failure_rate']:.2f} %, truncated "
+            f"{100 * st['truncation_rate']:.2f} %), p10/p50/p90 {times(st['time_to_success_s'])}",
+        ))  # fmt: skip
+    seq = res["sequence"]
+    rows += [
+        ("whole sequence", f"{100 * seq['success_rate']:.2f} % of {seq['episodes']} attempts, "
+                           f"p10/p50/p90 {times(seq['time_to_success_s'])}"),
+        ("wall time", f"{res['seconds']:.1f} s"),
+    ]  # fmt: skip
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")

@@ -457,6 +457,23 @@ def make_train_env(
     )
 
 
+def eval_config(noise_scale: float = 1.0) -> TaskConfig:
+    """The evaluation protocol's task config (noise on, curriculum off), its four noise
+    standard deviations times `noise_scale` (2: twice the paper's)."""
+    from sim.config import EVAL_CONFIG
+
+    if not (math.isfinite(noise_scale) and noise_scale >= 0):
+        raise ValueError(f"--noise-scale {noise_scale}: give a factor >= 0 (1: the paper's noise)")
+    c = EVAL_CONFIG
+    return replace(
+        c,
+        obs_pos_noise=c.obs_pos_noise * noise_scale,
+        obs_rot_noise=c.obs_rot_noise * noise_scale,
+        act_lin_noise=c.act_lin_noise * noise_scale,
+        act_ang_noise=c.act_ang_noise * noise_scale,
+    )
+
+
 def make_eval_env(
     dataset: str,
     num_envs: int | None,
@@ -472,10 +489,8 @@ def make_eval_env(
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all)."""
     from assetgen.dataset.reader import Dataset, content_hash
-    from sim.config import EVAL_CONFIG
 
-    if not (math.isfinite(noise_scale) and noise_scale >= 0):
-        raise ValueError(f"--noise-scale {noise_scale}: give a factor >= 0 (1: the paper's noise)")
+    config = eval_config(noise_scale)
     root = _dataset_root(dataset)
     ids = None
     if modules is not None:
@@ -488,14 +503,6 @@ def make_eval_env(
             f"--envs {num_envs} is less than the dataset's {len(modules)} modules: a "
             "checkpoint is evaluated with one env per module; raise --envs"
         )
-    c = EVAL_CONFIG
-    config = replace(
-        c,
-        obs_pos_noise=c.obs_pos_noise * noise_scale,
-        obs_rot_noise=c.obs_rot_noise * noise_scale,
-        act_lin_noise=c.act_lin_noise * noise_scale,
-        act_ang_noise=c.act_ang_noise * noise_scale,
-    )
     env = PegInHoleVecEnv(modules, len(modules), config, assignment_seed=seed)
     env.protocol = {
         "dataset_folder": str(root),

@@ -204,6 +204,35 @@ def test_reward_scale_multiplies_the_stored_rewards() -> None:
         replace(TINY, reward_scale=0.0).validate()
 
 
+def test_bc_term_pulls_the_policy_to_the_teacher() -> None:
+    """With bc_weight > 0 the policy's mode on replayed states moves to the teacher's
+    action (a constant here, which the toy env's reward does not favour); without it, or
+    without a teacher, it does not."""
+    from dataclasses import replace
+
+    target = np.array([0.6, -0.4], np.float32)
+
+    def run(bc_weight: float) -> np.ndarray:
+        torch.manual_seed(0)
+        agent = Dreamer(4, 2, 3, replace(TINY, bc_weight=bc_weight, actor_lr=1e-2))
+        agent.set_teacher(lambda o: np.tile(target, (len(o), 1)))
+        env = ToyEnv(3)
+        obs = env.reset(seed=0)
+        for _ in range(120):
+            obs, r, term, trunc, info = env.step(agent.act(obs))
+            agent.process_step(obs, r, term, trunc, info)
+        assert agent.grad_steps > 100
+        metrics = agent.update(obs)
+        assert ("bc_loss" in metrics) == (bc_weight > 0)
+        agent.reset(np.ones(3, bool))
+        return agent.policy(obs)
+
+    assert np.abs(run(50.0) - target).max() < 0.1
+    assert np.abs(run(0.0) - target).max() > 0.3
+    with pytest.raises(ValueError, match="bc_weight"):
+        replace(TINY, bc_weight=-1.0).validate()
+
+
 def test_replay_sequences_and_memory_check() -> None:
     rep = SequenceReplay(capacity=20, num_envs=2, obs_dim=1, act_dim=1)
     for t in range(13):  # env 0 wraps its ring of 10

@@ -70,10 +70,13 @@ def _check_assembly(folder: Path, meta: dict) -> str | None:
     the MJCF holds them, and the steps and poses rebuilt from the stored parameters."""
     from assetgen.checks.step_checks import check_parts, check_steps
     from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
-    from assetgen.families.profile_bolt import ProfileBoltParams, build_profile_bolt
+    from assetgen.families.registry import family
 
     try:
-        assembly = build_profile_bolt(ProfileBoltParams.from_json(meta["params"]))
+        rebuild = family(meta["family"]).rebuild
+        if rebuild is None:
+            raise ValueError(f"family {meta['family']!r} has no assemblies to rebuild")
+        assembly = rebuild(meta["params"])
         names = [p.name for p in (assembly.base, *assembly.parts)]
         meshes = {n: read_stl_mm(folder / f"{n}.stl") for n in names}
         mjcf = folder / ASSEMBLY_MJCF_FILE
@@ -81,7 +84,7 @@ def _check_assembly(folder: Path, meta: dict) -> str | None:
         pieces = {n: part_pieces(inline, n) for n in names}
         check_parts(meshes)
         check_steps(assembly, meshes, pieces)
-    except (CheckError, ValueError) as e:
+    except (CheckError, ValueError, KeyError) as e:
         return f"fails its checks: {e}"
     return None
 

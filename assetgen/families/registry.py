@@ -11,8 +11,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from assetgen.core.timing import StepTimes
+
+if TYPE_CHECKING:
+    from assetgen.families.parts import Assembly
 
 DEFAULT_FAMILY = "peg-in-hole"
 
@@ -21,12 +25,15 @@ DEFAULT_FAMILY = "peg-in-hole"
 class Family:
     """name: as in `--family`; sampler: its config class; write(seed, config, modules_dir,
     formats, times) -> module.json, raising ModuleFailure; gaps(record): the measured
-    clearances of a written module (m)."""
+    clearances of a written module (m); rebuild(params JSON) -> the Assembly a module was
+    made from (`assetgen check` compares the files with it), None for Table I modules,
+    which are checked by their own rules."""
 
     name: str
     sampler: type
     write: Callable[[int, object, Path, tuple[str, ...], StepTimes | None], dict]
     gaps: Callable[[dict], list[float]]
+    rebuild: Callable[[dict], Assembly] | None = None
 
 
 def _write_peg_in_hole(seed, config, modules_dir, formats, times) -> dict:
@@ -47,6 +54,12 @@ def _write_profile_bolt(seed, config, modules_dir, formats, times) -> dict:
     except ParamError as e:
         raise ModuleFailure(seed, str(e)) from e
     return write_assembly("profile-bolt", params, assembly, seed, modules_dir, times)
+
+
+def _rebuild_profile_bolt(params: dict) -> Assembly:
+    from assetgen.families.profile_bolt import ProfileBoltParams, build_profile_bolt
+
+    return build_profile_bolt(ProfileBoltParams.from_json(params))
 
 
 def _peg_sampler():
@@ -73,6 +86,7 @@ FAMILIES: dict[str, Callable[[], Family]] = {
         _profile_bolt_sampler(),
         _write_profile_bolt,
         lambda r: [s["clearance_m"] for s in r["checks"]["steps"]],
+        _rebuild_profile_bolt,
     ),
 }
 """Family constructors by name (a function each, so naming a family imports only its own

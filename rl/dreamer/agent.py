@@ -16,7 +16,8 @@ episode's state into the next.
 With a teacher (`set_teacher`, e.g. `assetgen train --algo dreamer --demos scripted-fast`)
 the warm-up is played by the teacher instead of uniform actions, so the replay (which keeps
 them: uniform sampling over everything stored) starts with successful episodes that the
-world model learns the task's rewards from.
+world model learns the task's rewards from; with `bc_weight` > 0 the actor is also pulled
+towards the teacher's actions on replayed states (an addition to the published algorithm).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ class Dreamer:
         "kl",
         "post_entropy",
         "actor_loss",
+        "bc_loss",
         "critic_loss",
         "actor_entropy",
         "return_scale",
@@ -243,6 +245,15 @@ class Dreamer:
                       post.logits.detach().reshape(-1, s, c))  # fmt: skip
         terminal = batch["is_terminal"].reshape(-1)
         actor_loss, critic_loss, ac_metrics = self.ac.losses(self.wm, start, terminal)
+        if self.teacher is not None and cfg.bc_weight > 0:
+            # labelled at sampling time: the teachers are functions of the observation, so
+            # this equals labelling at storage time and keeps the replay's layout
+            target = self._t(self.teacher(batch["obs"].reshape(-1, batch["obs"].shape[-1])
+                                          .cpu().numpy()))  # fmt: skip
+            mode = self.ac.actor(start.feat()).mode()
+            bc_loss = (mode - target).pow(2).sum(-1).mean()
+            actor_loss = actor_loss + cfg.bc_weight * bc_loss
+            ac_metrics["bc_loss"] = bc_loss.detach()
         self.actor_opt.zero_grad(set_to_none=True)
         actor_loss.backward()
         metrics["actor_grad_norm"] = torch.nn.utils.clip_grad_norm_(

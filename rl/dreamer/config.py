@@ -106,6 +106,13 @@ class DreamerConfig:
     """Env steps (summed over envs) taken with uniform random actions before training."""
     teacher_noise: float = 0.05
     """With a teacher (`--demos`) only: std of the Gaussian noise on its warm-up actions."""
+    bc_weight: float = 0.0
+    """With a teacher only: weight of a behaviour-cloning term added to the actor's loss,
+    the squared distance between the policy's mode on every replayed posterior state and
+    the teacher's action at that step's observation (the teacher labels the replayed
+    observations, its own and the policy's). 0: the published algorithm, where the teacher
+    only plays the warm-up. The SAC runs showed that demonstrations in the replay alone do
+    not carry an agent past the switch from the teacher, and a constant BC term does."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
 
@@ -124,6 +131,7 @@ class DreamerConfig:
             "train_ratio >= 0": self.train_ratio >= 0,
             "reward_scale > 0": self.reward_scale > 0,
             "teacher_noise >= 0": self.teacher_noise >= 0,
+            "bc_weight >= 0": self.bc_weight >= 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
         }
         bad = [k for k, ok in checks.items() if not ok]
