@@ -194,3 +194,22 @@ def test_full_disk_mid_run_keeps_finished_modules_and_resumes(tmp_path, tiny_dat
     assert s.cached == 3 and s.generated == 3 and not s.failures
     info = json.loads((tiny_dataset / "dataset.json").read_text())
     assert s.content_hash == info["summary"]["content_hash"]
+
+
+def test_a_seed_refused_by_the_footprint_rule_is_drawn_again(tmp_path):
+    """Seed 1000071's first draw leans its sleeve out of the plate (one of 72 in the
+    100,000-module run): the writer takes the seed's second draw, records it, and the module
+    passes every check; a seed whose first draw builds keeps it (no `draw` key)."""
+    from assetgen.dataset.module_writer import generate_module
+    from assetgen.geometry.solids import FootprintError, build_module
+    from assetgen.params.sampler import sample_params
+
+    cfg = SamplerConfig()
+    with pytest.raises(FootprintError):
+        build_module(sample_params(cfg, 1000071))
+    record = generate_module(1000071, cfg, tmp_path)
+    assert record["draw"] == 1
+    assert record["params"] == sample_params(cfg, 1000071, 1).to_json()
+    assert record["checks"]["clearance_m"] == pytest.approx(1e-3, abs=1e-6)
+    assert "draw" not in generate_module(1000072, cfg, tmp_path)
+    assert sample_params(cfg, 5, 0) == sample_params(cfg, 5) != sample_params(cfg, 5, 1)

@@ -23,7 +23,12 @@ from assetgen.formats.context import ExportContext
 from assetgen.formats.registry import EXPORTERS, with_dependencies
 from assetgen.formats.threemf import threemf_bytes
 from assetgen.geometry.mass import mass_properties
-from assetgen.geometry.solids import ModuleGeometry, build_module, insertion_travel
+from assetgen.geometry.solids import (
+    FootprintError,
+    ModuleGeometry,
+    build_module,
+    insertion_travel,
+)
 from assetgen.params.module_params import ModuleParams, ParamError
 from assetgen.params.sampler import SamplerConfig, sample_params
 
@@ -71,6 +76,10 @@ def peg_mass_properties(geom: ModuleGeometry) -> dict:
     }
 
 
+MAX_DRAWS = 16
+"""Draws of one seed before a footprint refusal fails the module (each draw is refused
+with probability about 7e-4, so a 16th is never needed in practice)."""
+
 write_json = atomic_file.write_dataset_json
 """module.json's writer (a module attribute: tests replace it to fill the disk)."""
 
@@ -82,13 +91,23 @@ def generate_module(
     formats: tuple[str, ...] = (),
     times: StepTimes | None = None,
 ) -> dict:
-    """Sample module `seed` under `config` and write it (see write_module)."""
-    try:
-        with step(times, "sample"):
-            params = sample_params(config, seed)
-    except ParamError as e:
-        raise ModuleFailure(seed, str(e)) from e
-    return write_module(params, seed, modules_dir, formats, times)
+    """Sample module `seed` under `config` and write it (see write_module). A draw that the
+    footprint rule refuses (FootprintError: the sleeve under a deep, tilted hole near the
+    plate's edge would lean out of the plate; about 0.07 % of Table I draws) is drawn again
+    from the seed's next stream, up to MAX_DRAWS times; module.json records `draw` when it
+    is not the first."""
+    for draw in range(MAX_DRAWS):
+        try:
+            with step(times, "sample"):
+                params = sample_params(config, seed, draw)
+        except ParamError as e:
+            raise ModuleFailure(seed, str(e)) from e
+        try:
+            return write_module(params, seed, modules_dir, formats, times, draw=draw)
+        except ModuleFailure as e:
+            if not isinstance(e.__cause__, FootprintError) or draw == MAX_DRAWS - 1:
+                raise
+    raise AssertionError("unreachable")
 
 
 @contextmanager
@@ -117,8 +136,10 @@ def write_module(
     modules_dir: Path,
     formats: tuple[str, ...] = (),
     times: StepTimes | None = None,
+    draw: int = 0,
 ) -> dict:
-    """Build, check and write a module into `modules_dir/<id>/`; return its module.json.
+    """Build, check and write a module into `modules_dir/<id>/`; return its module.json
+    (`draw`: which of the seed's draws `params` is, recorded when not the first).
 
     Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
     check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF. Each step
@@ -153,6 +174,7 @@ def write_module(
             {
                 "id": mid,
                 "seed": seed,
+                **({"draw": draw} if draw else {}),
                 "generator_version": GENERATOR_VERSION,
                 "params": params.to_json(),
                 "clearance": params.clearance,

@@ -109,11 +109,17 @@ def config_from_json(cls: type, d: dict, what: str):
     return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
 
 
-def sample_params(config: SamplerConfig, seed: int) -> ModuleParams:
-    """The module parameters of `seed` under `config` (same on every machine)."""
+def sample_params(config: SamplerConfig, seed: int, draw: int = 0) -> ModuleParams:
+    """The module parameters of `seed` under `config` (same on every machine). `draw` > 0
+    gives the seed's further draws, from a stream of their own (numpy's seed sequence of
+    (seed, draw)), for a seed whose first draw the generator refuses by design (a sleeve
+    leaning out of its plate): draw 0 is the only one most seeds ever use, so redraws
+    change no other module."""
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise ParamError(f"seed = {seed!r} must be a non-negative integer")
-    rng = np.random.default_rng(int(seed))
+    if not isinstance(draw, int | np.integer) or draw < 0:
+        raise ParamError(f"draw = {draw!r} must be a non-negative integer")
+    rng = np.random.default_rng(int(seed) if draw == 0 else [int(seed), int(draw)])
 
     def u(r: tuple[float, float]) -> float:
         return float(rng.uniform(r[0], r[1]))
