@@ -250,8 +250,9 @@ class Dreamer:
             # this equals labelling at storage time and keeps the replay's layout
             target = self._t(self.teacher(batch["obs"].reshape(-1, batch["obs"].shape[-1])
                                           .cpu().numpy()))  # fmt: skip
-            mode = self.ac.actor(start.feat()).mode()
-            bc_loss = (mode - target).pow(2).sum(-1).mean()
+            # the teacher's action's negative log-likelihood: it trains the spread too, so
+            # the policy's samples (what it trains on) narrow where the teacher is sure
+            bc_loss = -self.ac.actor(start.feat()).log_prob(target).mean()
             actor_loss = actor_loss + cfg.bc_weight * bc_loss
             ac_metrics["bc_loss"] = bc_loss.detach()
         self.actor_opt.zero_grad(set_to_none=True)

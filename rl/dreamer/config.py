@@ -108,10 +108,10 @@ class DreamerConfig:
     """With a teacher (`--demos`) only: std of the Gaussian noise on its warm-up actions."""
     bc_weight: float = 0.0
     """With a teacher only: weight of a behaviour-cloning term added to the actor's loss,
-    the squared distance between the policy's mode on every replayed posterior state and
-    the teacher's action at that step's observation (the teacher labels the replayed
-    observations, its own and the policy's). 0: the published algorithm, where the teacher
-    only plays the warm-up. The SAC runs showed that demonstrations in the replay alone do
+    the negative log-likelihood under the policy, on every replayed posterior state, of the
+    teacher's action at that step's observation (the teacher labels the replayed
+    observations, its own and the policy's); it pulls the mean and narrows the spread. 0:
+    the published algorithm, where the teacher only plays the warm-up. The SAC runs showed that demonstrations in the replay alone do
     not carry an agent past the switch from the teacher, and a constant BC term does."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
