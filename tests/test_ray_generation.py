@@ -117,3 +117,38 @@ def test_killed_driver_resumes_to_the_same_hash(tmp_path, pool_hash) -> None:
     assert rc == 0, o + err
     assert _hash(out) == pool_hash
     assert not list(modules.glob(".tmp-*"))
+
+
+def test_joining_a_cluster_started_with_token_authentication(tmp_path, pool_hash) -> None:
+    """`ray start --head` (token authentication on, as Ray turns it on from 2.59): a driver
+    without the cluster's token is refused at once, naming what to do; with the token where
+    Ray keeps it, the same bytes as the process pool."""
+    import shutil
+    import socket
+
+    if any(k in os.environ for k in ("RAY_AUTH_MODE", "RAY_AUTH_TOKEN", "RAY_AUTH_TOKEN_PATH")):
+        pytest.skip("the environment sets Ray's authentication already")
+    ray_cli = shutil.which("ray") or str(Path(sys.executable).with_name("ray"))
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_USAGE_STATS_ENABLED": "0"}
+    subprocess.run([ray_cli, "start", "--head", "--node-ip-address", "127.0.0.1", "--port",
+                    str(port), "--num-cpus", "1", "--include-dashboard", "false",
+                    "--disable-usage-stats"], env=env, check=True, capture_output=True,
+                   timeout=120)  # fmt: skip
+    try:
+        home = tmp_path / "home"  # no ~/.ray/auth_token there
+        home.mkdir()
+        out = tmp_path / "refused"
+        t0 = time.perf_counter()
+        rc, _, err = _finish(_sample(out, "--ray", f"127.0.0.1:{port}", env={"HOME": str(home)}),
+                             timeout=60)  # fmt: skip
+        assert rc == 2 and "uses token authentication" in err and "Traceback" not in err, err
+        assert time.perf_counter() - t0 < 20 and not out.exists()
+        joined = tmp_path / "joined"
+        rc, text, err = _finish(_sample(joined, "--ray", f"127.0.0.1:{port}"), timeout=600)
+        assert rc == 0, text + err
+        assert _hash(joined) == pool_hash
+    finally:
+        subprocess.run([ray_cli, "stop", "--force"], capture_output=True, timeout=120)

@@ -71,11 +71,12 @@ def probe(address: str) -> None:
             f"--ray {address!r}: expected HOST:PORT (the head node's GCS, e.g. 10.0.0.5:6379), "
             "ray://HOST:PORT, or auto"
         )
+    answer = "open"
     try:
         with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
             pass
         if url.scheme == "tcp":
-            _ping_gcs(f"{host}:{port}")
+            answer = _ping_gcs(f"{host}:{port}")
     except (OSError, RuntimeError) as e:
         reason = getattr(e, "strerror", None) or str(e)
         raise DatasetError(
@@ -83,9 +84,31 @@ def probe(address: str) -> None:
             "`ray start --head` on the head node, or leave out the address for a local Ray "
             "instance. Nothing was written."
         ) from None
+    if answer == "token":
+        _use_token(address)
 
 
-def _ping_gcs(target: str) -> None:
+def _use_token(address: str) -> None:
+    """The head at `address` wants Ray's token authentication (`ray start --head` turns it on
+    from Ray 2.59): the driver must run in token mode with the cluster's token. Ray reads the
+    token from RAY_AUTH_TOKEN, the file RAY_AUTH_TOKEN_PATH names, or ~/.ray/auth_token;
+    where one is there, token mode is switched on for this process, else DatasetError."""
+    if os.environ.get("RAY_AUTH_MODE") == "token":
+        return  # the user's own setting: Ray reports a wrong token itself
+    path = os.environ.get("RAY_AUTH_TOKEN_PATH") or os.path.expanduser("~/.ray/auth_token")
+    if not (os.environ.get("RAY_AUTH_TOKEN") or os.path.isfile(path)):
+        raise DatasetError(
+            f"--ray {address}: the Ray cluster there uses token authentication, and this "
+            "machine has no token: copy the head node's ~/.ray/auth_token here (`ray "
+            "get-auth-token` on the head prints it) or set RAY_AUTH_TOKEN. Nothing was "
+            "written."
+        )
+    os.environ["RAY_AUTH_MODE"] = "token"
+
+
+def _ping_gcs(target: str) -> str:
+    """ "open" when a Ray head's GCS answers at `target`, "token" when it answers that it
+    wants an authentication token; RuntimeError when what answers is not a Ray head."""
     import grpc  # a dependency of Ray
 
     answers = _gcs_answers()
@@ -101,6 +124,9 @@ def _ping_gcs(target: str) -> None:
             # (UNIMPLEMENTED), or without gRPC (UNAVAILABLE, DEADLINE_EXCEEDED), is not.
             if e.code() not in answers:
                 raise RuntimeError(f"not a Ray head: {e.code().name}") from None
+            if e.code() == grpc.StatusCode.UNAUTHENTICATED and "AuthToken" in (e.details() or ""):
+                return "token"
+    return "open"
 
 
 def connect(address: str | None, workers: int | None):
