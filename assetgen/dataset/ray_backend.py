@@ -16,6 +16,7 @@ Ray is the optional extra `[cluster]`, imported only here.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import socket
 from collections.abc import Iterable, Iterator
@@ -132,9 +133,11 @@ def _ping_gcs(target: str) -> str:
 def connect(address: str | None, workers: int | None):
     """Connect to the cluster at `address`, or start a local instance with `workers` CPUs
     (default: all). Returns the ray module."""
-    ray = import_ray()
+    if importlib.util.find_spec("ray") is None:
+        import_ray()  # the message naming the extra
     if address:
-        probe(address)
+        probe(address)  # before Ray is imported: it reads RAY_AUTH_MODE then
+    ray = import_ray()
     kwargs = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
     try:
         if address:
