@@ -139,7 +139,10 @@ def cmd_physics(args: argparse.Namespace) -> int:
         root, _ = resolve(args.dataset)
     except DatasetError as e:
         return _err(str(e))
-    return report(root, args.limit, args.json, args.workers)
+    try:
+        return report(root, args.limit, args.json, args.workers, args.timestep)
+    except ValueError as e:
+        return _err(str(e))
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -355,6 +358,10 @@ def build_parser() -> argparse.ArgumentParser:
     ph.add_argument("--limit", type=int, default=None, help="first N modules only")
     ph.add_argument("--json", type=Path, default=None, help="write per-module figures here")
     ph.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    ph.add_argument(
+        "--timestep", type=float, default=None,
+        help="assembly datasets: simulate with this physics step (s), finer than the files' 5 ms",
+    )  # fmt: skip
     ph.set_defaults(func=cmd_physics)
 
     i = sub.add_parser("info", help="summary of a dataset's parameter distributions")

@@ -51,7 +51,8 @@ class _Scene:
     model: mujoco.MjModel
     data: mujoco.MjData
     body: int
-    geom: int
+    geom: int  # the part's first geom (a Table I peg has one)
+    geoms: np.ndarray  # every geom of the part (an assembly's part: its convex pieces)
     qpos: int  # address of the free joint in qpos (7: pos, quat w x y z)
     dof: int  # address of the free joint in qvel (6: linear world, angular local)
     bottom_pos: np.ndarray  # (3,) m, module frame
@@ -78,39 +79,72 @@ class _Scene:
         n = self.data.ncon
         if n == 0:
             return 0.0
-        mine = (c.geom1[:n] == self.geom) | (c.geom2[:n] == self.geom)
+        mine = np.isin(c.geom1[:n], self.geoms) | np.isin(c.geom2[:n], self.geoms)
         return float(max(0.0, -c.dist[:n][mine].min())) if mine.any() else 0.0
 
     def touching(self) -> bool:
         """Whether the current contacts (margin 0: overlaps only) include the peg."""
         n = self.data.ncon
         c = self.data.contact
-        return bool(n and ((c.geom1[:n] == self.geom) | (c.geom2[:n] == self.geom)).any())
+        if not n:
+            return False
+        return bool((np.isin(c.geom1[:n], self.geoms) | np.isin(c.geom2[:n], self.geoms)).any())
 
     def speeds(self) -> tuple[float, float]:
         v = self.data.qvel[self.dof : self.dof + 6]
         return float(np.linalg.norm(v[:3])), float(np.linalg.norm(v[3:]))
 
 
-def _load(xml_path: Path) -> _Scene:
-    model = mujoco.MjModel.from_xml_path(str(xml_path))
+def _load(xml_path: Path, part: str | None = None, timestep: float | None = None) -> _Scene:
+    """A Table I module's MJCF (part None), or step `part` of an assembly's MJCF: that part
+    moves; the parts of earlier steps are fixed where they were inserted (their free joints
+    removed); the parts of later steps are not there yet (their contacts off). `timestep`
+    replaces the file's physics step (s)."""
+    if part is None:
+        model = mujoco.MjModel.from_xml_path(str(xml_path))
+        names = (PEG_BODY, PEG_JOINT, "bottom", "entrance", CLEARANCE_NUMERIC)
+    else:
+        spec = mujoco.MjSpec.from_file(str(xml_path))
+        text = spec.text("steps")
+        order = text.data.split() if text is not None else []
+        if part not in order:
+            raise ValueError(f"{xml_path}: no step moves a part {part!r}; the steps: {order}")
+        k = order.index(part)
+        for earlier in order[:k]:
+            spec.delete(spec.joint(f"{earlier}_free"))  # fixed where it was inserted
+        model = spec.compile()
+        for later in order[k + 1 :]:
+            g = model.geom_bodyid == model.body(later).id
+            model.geom_contype[g] = 0
+            model.geom_conaffinity[g] = 0
+        names = (part, f"{part}_free", f"bottom_{part}", f"entrance_{part}", f"clearance_{part}")
+    if timestep is not None:
+        if not 0 < timestep <= model.opt.timestep:
+            raise ValueError(f"timestep = {timestep!r} s: give a step in (0, the file's)")
+        model.opt.timestep = timestep
+    body_name, joint_name, bottom_name, entrance_name, clearance_name = names
     data = mujoco.MjData(model)
-    body = model.body(PEG_BODY).id
-    joint = model.joint(PEG_JOINT)
-    bottom = model.site("bottom")
-    entrance = model.site("entrance")
+    body = model.body(body_name).id
+    joint = model.joint(joint_name)
+    bottom = model.site(bottom_name)
+    entrance = model.site(entrance_name)
     mujoco.mj_kinematics(model, data)
     rot = data.site_xmat[bottom.id].reshape(3, 3).copy()
     pos = data.site_xpos[bottom.id].copy()
     depth = float((data.site_xpos[entrance.id] - pos) @ rot[:, 2])
     quat = np.empty(4)
     mujoco.mju_mat2Quat(quat, rot.ravel())
-    clearance = float(model.numeric(CLEARANCE_NUMERIC).data[0])
+    clearance = float(model.numeric(clearance_name).data[0])
+    if part is None:
+        geoms = np.array([model.geom(PEG_GEOM).id])
+    else:
+        geoms = np.flatnonzero(model.geom_bodyid == body)
     return _Scene(
         model,
         data,
         body,
-        model.geom(PEG_GEOM).id,
+        int(geoms[0]),
+        geoms,
         int(joint.qposadr[0]),
         int(joint.dofadr[0]),
         pos,
@@ -217,13 +251,16 @@ def _free_travel(
     """
     m, d = s.model, s.data
     start = d.qpos[s.qpos : s.qpos + 3].copy()
-    pieces = [g for g in range(m.ngeom) if g != s.geom and m.geom_conaffinity[g]]
+    mine = set(s.geoms.tolist())
+    pieces = [g for g in range(m.ngeom) if g not in mine and m.geom_conaffinity[g]]
     fromto = np.zeros(6)
 
     def clear(t: float) -> bool:
         d.qpos[s.qpos : s.qpos + 3] = start + t * u
         mujoco.mj_kinematics(m, d)
-        return all(mujoco.mj_geomDistance(m, d, s.geom, g, march, fromto) > 0 for g in pieces)
+        return all(
+            mujoco.mj_geomDistance(m, d, a, g, march, fromto) > 0 for a in s.geoms for g in pieces
+        )
 
     lo = 0.0
     result = limit
@@ -252,8 +289,12 @@ def drop_test(
     speed: float | None = 0.1,
     hold_orientation: bool = True,
     rest_steps: int = 40,
+    part: str | None = None,
+    timestep: float | None = None,
 ) -> dict:
-    """Push a peg down its hole and let it come to rest on the floor.
+    """Push a peg down its hole and let it come to rest on the floor (`part`: an assembly's
+    moving part, in its step; `timestep`: a finer physics step than the file's; see
+    `_load`).
 
     The peg starts aligned with the hole axis, its bottom face `start_height` m above the
     entrance (along the axis), at rest, and is pushed down the axis (the bottom frame's -z,
@@ -279,7 +320,7 @@ def drop_test(
       seconds            wall time (load + simulation)
     """
     t0 = time.perf_counter()
-    s = _load(xml_path)
+    s = _load(xml_path, part, timestep)
     m, d = s.model, s.data
     axis = s.bottom_rot[:, 2]
     m.opt.gravity[:] = 0.0  # gravity is applied as the force m g at the COM: the same
@@ -324,8 +365,12 @@ def side_push_test(
     speed: float | None = 0.01,
     hold_orientation: bool = True,
     rest_steps: int = 40,
+    part: str | None = None,
+    timestep: float | None = None,
 ) -> dict:
-    """Push the inserted peg sideways against the walls, in several directions.
+    """Push the inserted peg sideways against the walls, in several directions (`part`: an
+    assembly's moving part, in its step; `timestep`: a finer physics step than the file's;
+    see `_load`).
 
     For each of `directions` directions evenly spread across the hole axis (the bottom
     frame's x-y plane, starting at its x), or each of the angles `directions` (rad from the
@@ -369,6 +414,9 @@ def side_push_test(
       angles               per direction, its angle (rad) from the bottom frame's x
       along                per direction, the largest displacement along the push
       along_at_rest        per direction, the final displacement along the push
+      jitter               per direction, the size (m) of the box the peg frame's origin
+                           moved in over the last `rest_steps` steps (contact chatter
+                           where a push does not settle; ~0 at rest)
       seated_free_travel   per direction, the free travel along the push from the seated
                            pose (frame on the bottom frame, 1 um above the floor): where a
                            peg held down on the floor can go (towards a face: at most the
@@ -380,7 +428,7 @@ def side_push_test(
     if not 0.0 <= insertion <= 1.0:
         raise ValueError(f"insertion = {insertion!r}; expected a fraction in [0, 1]")
     t0 = time.perf_counter()
-    s = _load(xml_path)
+    s = _load(xml_path, part, timestep)
     s.model.opt.gravity[:] = 0.0
     if hold_orientation:
         s.model.body_inertia[s.body] *= 1e6
@@ -388,7 +436,7 @@ def side_push_test(
     down = axial_force + float(s.model.body_subtreemass[s.body]) * gravity
     start_axial = s.clearance + (1.0 - insertion) * (s.depth - s.clearance)
     names = ("lateral", "lateral_at_rest", "axial_at_rest", "overshoot", "free_travel")
-    names += ("along", "along_at_rest", "seated_free_travel")
+    names += ("along", "along_at_rest", "seated_free_travel", "jitter")
     out: dict[str, list] = {k: [] for k in names}
     if isinstance(directions, int):
         angles = [2.0 * np.pi * k / directions for k in range(directions)]
@@ -417,6 +465,8 @@ def side_push_test(
         out["axial_at_rest"].append(float(delta[-1] @ axis))
         out["along"].append(float((delta @ u).max()))
         out["along_at_rest"].append(float(delta[-1] @ u))
+        last = pos[-rest_steps:]
+        out["jitter"].append(float(np.linalg.norm(last.max(axis=0) - last.min(axis=0))))
         end_move = delta[-1]
         moved = float(np.linalg.norm(end_move))
         if moved > 1e-9:

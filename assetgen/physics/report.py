@@ -113,14 +113,73 @@ def check_module(xml_path: Path) -> dict[str, float]:
     }
 
 
+ASSEMBLY_LIMITS: dict[str, float] = {
+    "drop_rest_error": 0.2e-3,
+    "drop_penetration": 0.1e-3,
+    "move_over_free": 0.1e-3,
+    "penetration_at_rest": 0.1e-3,
+}
+"""The bounds (m) on an assembly step's figures (`check_assembly_step`); `passed_through`
+must be 0. Settling is reported, not bounded: see `jitter`."""
+
+PUSH_SECONDS = 2.0
+"""Simulated time of each side push of an assembly step (400 steps at the files' 5 ms)."""
+
+
+def check_assembly_step(job: tuple[Path, str, float | None]) -> dict[str, float]:
+    """The drop and the side pushes of one step of an assembly: job = (assembly.xml, the
+    step's part, a physics step finer than the file's or None). The part moves; the parts
+    of earlier steps are fixed where they were inserted; later ones are absent. The side
+    pushes go in 8 even directions across the axis (faces and corners of a square profile),
+    held down the axis as Table I's are. Figures (m unless said):
+
+    drop_rest_error, drop_penetration, penetration_transient, passed_through: as
+        `check_module`'s
+    move_over_free       largest move along a push at rest beyond the free travel from the
+                         seated pose in that direction (MuJoCo's distances on the pieces)
+    overshoot, penetration_at_rest: as `check_module`'s
+    jitter               largest box the part's origin moved in over a push's last 40 steps
+                         (chatter where a push does not come to rest)
+    unsettled            runs that did not come to rest (the drop and the 8 pushes)
+    clearance, timestep (s), seconds
+    """
+    t0 = time.perf_counter()
+    xml, part, timestep = job
+    drop = drop_test(xml, part=part, timestep=timestep, gravity=GRAVITY)
+    steps = None if timestep is None else round(PUSH_SECONDS / timestep)
+    push = side_push_test(
+        xml, part=part, timestep=timestep, directions=EVEN_DIRECTIONS, force=SIDE_FORCE,
+        axial_force=HOLD_DOWN, gravity=GRAVITY, **({} if steps is None else {"steps": steps}),
+    )  # fmt: skip
+    along, free = push["along_at_rest"], push["seated_free_travel"]
+    over_free = [a - f for a, f in zip(along, free, strict=True)]
+    return {
+        "drop_rest_error": drop["rest_distance"],
+        "drop_penetration": drop["max_penetration"],
+        "move_over_free": max(over_free),
+        "overshoot": push["max_overshoot"],
+        "penetration_at_rest": push["max_penetration_at_rest"],
+        "penetration_transient": max(push["max_penetration"], drop["max_penetration_transient"]),
+        "jitter": max(push["jitter"]),
+        "passed_through": float(push["passed_through"]),
+        "unsettled": float((not drop["reached_floor"]) + (not push["settled"])),
+        "clearance": push["clearance"],
+        "seconds": time.perf_counter() - t0,
+    }
+
+
 def failures(figures: dict[str, float]) -> list[str]:
-    """The bounds a module's figures break, as readable strings (empty: it passes)."""
+    """The bounds a module's (or an assembly step's) figures break, as readable strings
+    (empty: it passes)."""
+    assembly = "move_over_free" in figures
+    limits = ASSEMBLY_LIMITS if assembly else LIMITS
     bad = [
         f"{k} {figures[k] * 1e3:.4f} mm >= {v * 1e3:g} mm"
-        for k, v in LIMITS.items()
+        for k, v in limits.items()
         if not figures[k] < v
     ]
-    bad += [k for k in ("passed_through", "unsettled") if figures[k]]
+    flags = ("passed_through",) if assembly else ("passed_through", "unsettled")
+    bad += [k for k in flags if figures[k]]
     return bad
 
 
@@ -134,8 +193,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=None, help="first N modules only")
     ap.add_argument("--json", type=Path, default=None, help="write per-module figures here")
     ap.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    ap.add_argument("--timestep", type=float, default=None,
+                    help="assemblies: a physics step (s) finer than the files' 5 ms")  # fmt: skip
     args = ap.parse_args(argv)
-    return report(args.dataset, args.limit, args.json, args.workers)
+    return report(args.dataset, args.limit, args.json, args.workers, args.timestep)
 
 
 def report(
@@ -143,6 +204,7 @@ def report(
     limit: int | None = None,
     json_out: Path | None = None,
     workers: int | None = None,
+    timestep: float | None = None,
 ) -> int:
     """Check the first `limit` (default: all) modules of the dataset at `root` in `workers`
     processes (default: all cores), print the worst figures and the failing modules,
@@ -152,12 +214,25 @@ def report(
 
     ds = Dataset(root)
     ids = list(ds.ids)[:limit]
-    paths = [ds.paths(mid)["mjcf"] for mid in ids]
+    if ds.spec.family == "peg-in-hole":
+        if timestep is not None:
+            raise ValueError("--timestep is for assembly datasets (Table I: docs/physics.md)")
+        jobs: list = [ds.paths(mid)["mjcf"] for mid in ids]
+        check = check_module
+    else:
+        # one row per assembly and step: "<id>/<part>"
+        from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE
+
+        steps = {mid: [st["part"] for st in ds.module_json(mid)["steps"]] for mid in ids}
+        ids = [f"{mid}/{part}" for mid in ids for part in steps[mid]]
+        jobs = [(ds.module_dir(r.split("/")[0]) / ASSEMBLY_MJCF_FILE, r.split("/")[1], timestep)
+                for r in ids]  # fmt: skip
+        check = check_assembly_step
     rows: dict[str, dict[str, float]] = {}
     failed: dict[str, list[str]] = {}
     workers = max(1, min(workers or os.cpu_count() or 1, len(ids)))
     with get_context("fork").Pool(workers) if workers > 1 else nullcontext() as pool:
-        results = pool.imap(check_module, paths) if pool else map(check_module, paths)
+        results = pool.imap(check, jobs) if pool else map(check, jobs)
         for i, (mid, figures) in enumerate(zip(ids, results, strict=True), 1):
             rows[mid] = figures
             if bad := failures(figures):
@@ -168,16 +243,18 @@ def report(
     for key in next(iter(rows.values())):
         worst = max(rows, key=lambda m: rows[m][key])
         v = rows[worst][key]
-        limit = f"{LIMITS[key] * 1e3:g} mm" if key in LIMITS else ""
+        bounds = ASSEMBLY_LIMITS if "move_over_free" in rows[worst] else LIMITS
+        limit = f"{bounds[key] * 1e3:g} mm" if key in bounds else ""
         shown = (
             f"{v * 1e3:9.4f} mm"
-            if key not in ("passed_through", "unsettled", "pushes", "seconds")
+            if key not in ("passed_through", "unsettled", "pushes", "seconds", "timestep")
             else f"{v:12.3f}"
         )
         print(f"{key:28s} {shown:>12s}  {limit:>8s}  {worst}")
     for mid, bad in failed.items():
         print(f"FAIL {mid}: " + "; ".join(bad))
-    print(f"{len(ids) - len(failed)}/{len(ids)} modules pass")
+    what = "modules" if check is check_module else "assembly steps"
+    print(f"{len(ids) - len(failed)}/{len(ids)} {what} pass")
     if json_out:
         # atomically: a report interrupted mid-write never replaces a finished one
         write_json(json_out, {"modules": rows, "failed": failed}, indent=1)
