@@ -111,8 +111,9 @@ class DreamerConfig:
     the negative log-likelihood under the policy, on every replayed posterior state, of the
     teacher's action at that step's observation (the teacher labels the replayed
     observations, its own and the policy's); it pulls the mean and narrows the spread. 0:
-    the published algorithm, where the teacher only plays the warm-up. The SAC runs showed that demonstrations in the replay alone do
-    not carry an agent past the switch from the teacher, and a constant BC term does."""
+    the published algorithm, where the teacher only plays the warm-up. The SAC runs showed
+    that demonstrations in the replay alone do not carry an agent past the switch from the
+    teacher, and a constant BC term does."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
 
