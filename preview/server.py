@@ -840,6 +840,16 @@ def serve(
     raises PreviewError before the server starts.
     """
     console = console or Console(stderr=True)
+    try:
+        ds = open_dataset(dataset)
+        assembly = ds.spec.family != "peg-in-hole"
+    except PreviewError:
+        assembly = False  # the Table I viewer reports it in the page and keeps serving
+    if assembly and (policy is not None or episode is not None):
+        raise PreviewError(
+            f"{dataset} holds assemblies: the viewer shows their parts and steps; a policy "
+            "or an episode plays on a peg-in-hole dataset (for assemblies: `assetgen eval`)"
+        )
     live = None
     if policy is not None:
         from preview.live import LivePolicy
@@ -857,6 +867,13 @@ def serve(
     warn = exposure_warning(host)
     if warn:
         console.print(f"[bold yellow]warning:[/] {escape(warn)}", highlight=False, soft_wrap=True)
+    if assembly:
+        from preview.assembly import AssemblyApp
+
+        app_a = AssemblyApp(server, ds)
+        if module is not None:
+            app_a.show_module(module)
+        return ViewerHandle(server, app_a, url, host, bound)  # type: ignore[arg-type]
     app = PreviewApp(server, console)
     app.open_dataset(dataset, module=module)
     if live is not None:

@@ -211,3 +211,32 @@ def test_html_snapshot_renders_offline(page: Page, preview_dataset, tmp_path):
     (tmp_path / "snapshot.png").write_bytes(png)
     assert page.locator("#assetgen-info").inner_text().startswith("module 000002")
     assert all(u.startswith(("file:", "data:", "blob:")) for u in requests), requests[:5]
+
+
+def test_assembly_viewer_renders_and_its_step_slider_moves_the_parts(page: Page, tmp_path):
+    """An assembly dataset in the live viewer: the parts render, and moving to step 2 (the
+    bolt appears, drawn back along its axis) changes the picture."""
+    from assetgen.families.profile_bolt import ProfileBoltSampler
+
+    root = tmp_path / "pb"
+    spec = DatasetSpec("pb", 0, 1, ProfileBoltSampler(), family="profile-bolt")
+    assert not generate(root, spec, workers=1, progress=False).failures
+    handle = serve(str(root), console=Console(file=io.StringIO()))
+    try:
+        page.goto(handle.url)
+        page.wait_for_selector("canvas", timeout=60_000)
+        _wait_for(lambda: len(handle.server.get_clients()) >= 1, 30, "the websocket client")
+        page.get_by_role("combobox", name="assembly", exact=True).wait_for(timeout=30_000)
+        before_png, before = _settled(page, 90, "the assembly to render")
+        (tmp_path / "assembly_step1.png").write_bytes(before_png)
+        handle.app.g_lift.value = 30.0
+        handle.app.set_step(2)
+
+        def changed(px: np.ndarray) -> bool:
+            return _not_blank(px) and _changed_pixels(px, before) > 0.002
+
+        _shot_until(page, changed, 60, "the bolt to appear")
+        after_png, _ = _settled(page, 60, "step 2 to render")
+        (tmp_path / "assembly_step2.png").write_bytes(after_png)
+    finally:
+        handle.stop()
