@@ -412,7 +412,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="multiply the observation and action noise (robustness: 2 = twice the paper's)",
     )
     e.add_argument("--record", type=Path, help="folder for recorded episodes (.npz)")
-    e.add_argument("--record-limit", type=int, default=None, help="episodes to record")
+    e.add_argument(
+        "--record-limit", type=int, default=None,
+        help="episodes to record (assembly datasets: the first attempt of this many assemblies)",
+    )  # fmt: skip
     e.add_argument("--out", type=Path, help="write the results JSON here")
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
     e.set_defaults(func=cmd_eval)

@@ -7,6 +7,10 @@ step k is lifted the slider's distance out of its hole along the step's insertio
 seated), and the parts of later steps are not shown yet. The convex pieces the simulator
 collides (from `assembly.xml`) can be shown instead of the surfaces, and each step's
 entrance and bottom frames. Reads only the module's files.
+
+An attempt recorded by `assetgen eval --dataset <assembly dataset> --record DIR` (one .npz,
+sim/sequence.py's save_sequence) replays across its stages: a time slider over every stage's
+steps, the earlier parts where that attempt pressed them home.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from __future__ import annotations
 import json
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -108,6 +113,58 @@ class AssemblyView:
         return "\n".join(rows)
 
 
+@dataclass
+class SequenceEpisode:
+    """A recorded attempt (sim/sequence.py's save_sequence) on one timeline: the stages'
+    steps one after another."""
+
+    assembly_id: str
+    parts: list[str]
+    poses: list[np.ndarray]
+    """Per stage reached, (T_k, 7) the active part's position + quaternion (w x y z)."""
+    outcome: np.ndarray
+    placed: np.ndarray
+    dt: float
+
+    @staticmethod
+    def load(path: str | Path) -> SequenceEpisode:
+        try:
+            with np.load(path) as z:
+                parts = [str(p) for p in z["parts"]]
+                outcome = z["outcome"].astype(int)
+                poses = [z[f"poses_{k}"].astype(float) for k in range(len(outcome))]
+                ep = SequenceEpisode(str(z["assembly_id"]), parts, poses, outcome,
+                                     z["placed"].astype(float), float(z["dt"]))  # fmt: skip
+        except (OSError, KeyError, ValueError) as e:
+            raise PreviewError(
+                f"{path}: not a recorded assembly sequence ({e}); record one with "
+                "`assetgen eval --dataset <assembly dataset> --record DIR`"
+            ) from e
+        if not ep.poses or any(p.ndim != 2 or p.shape[1] != 7 or not len(p) for p in ep.poses):
+            raise PreviewError(f"{path}: its stages hold no (T, 7) poses")
+        return ep
+
+    @property
+    def steps(self) -> int:
+        return sum(len(p) for p in self.poses)
+
+    def at(self, t: int) -> dict[str, np.ndarray]:
+        """(4, 4) pose of every part there at time step t (parts not there yet: absent)."""
+        from assetgen.core.rotations import quat_to_matrix
+
+        out: dict[str, np.ndarray] = {}
+        for k, path in enumerate(self.poses):
+            if t < len(path):
+                pose = np.eye(4)
+                pose[:3, :3] = quat_to_matrix(path[t, 3:])
+                pose[:3, 3] = path[t, :3]
+                out[self.parts[k]] = pose
+                return out
+            t -= len(path)
+            out[self.parts[k]] = self.placed[k]  # pressed home, where it stays
+        return out
+
+
 class AssemblyApp:
     """The viewer's state and GUI for an assembly dataset (see the module docstring)."""
 
@@ -134,6 +191,16 @@ class AssemblyApp:
             self.g_frames = gui.add_checkbox("step frames", True)
         with gui.add_folder("parameters", expand_by_default=False):
             self.g_info = gui.add_markdown("")
+        with gui.add_folder("Episode"):
+            self.g_ep_path = gui.add_text(
+                "episode file", "", hint=".npz from assetgen eval --record"
+            )
+            self.g_ep_load = gui.add_button("Load episode")
+            self.g_ep_info = gui.add_markdown("no episode loaded")
+            self.g_ep_step = gui.add_slider("time step", 0, 1, 1, 0, disabled=True)
+        self.episode: SequenceEpisode | None = None
+        self.g_ep_load.on_click(lambda _: self.load_episode(self.g_ep_path.value))
+        self.g_ep_step.on_update(lambda _: self._place())
         self.g_module.on_update(lambda e: self.show(e.target.value))
         self.g_browse.on_click(lambda e: self.browse(-1 if "prev" in e.target.value else 1))
         self.g_step.on_update(lambda _: self.set_step(int(self.g_step.value)))
@@ -182,6 +249,35 @@ class AssemblyApp:
             if self.g_step.value > self.g_step.max:
                 self.g_step.value = self.g_step.max
             self._build()
+            return True
+
+    def load_episode(self, path: str | Path) -> bool:
+        """Replay a recorded sequence attempt (its assembly is shown); False and a message in
+        the page when the file cannot be read or its assembly is not in this dataset."""
+        with self.lock:
+            try:
+                ep = SequenceEpisode.load(path)
+                if ep.assembly_id not in self.ds.records:
+                    raise PreviewError(
+                        f"{path}: assembly {ep.assembly_id} is not in {self.ds.root}; open the "
+                        "dataset it was recorded on"
+                    )
+            except PreviewError as e:
+                self.g_status.content = f"**error:** {e}"
+                return False
+            self.episode = None
+            if not self.show_module(ep.assembly_id):
+                return False
+            self.episode = ep
+            self.g_ep_step.max = max(1, ep.steps - 1)
+            self.g_ep_step.value = 0
+            self.g_ep_step.disabled = False
+            outcome = ", ".join(
+                f"{p}: {('success', 'failure', 'truncated')[int(o)]}"
+                for p, o in zip(ep.parts, ep.outcome, strict=False)
+            )
+            self.g_ep_info.content = f"**{ep.assembly_id}**, {ep.steps} steps ({outcome})"
+            self._place()
             return True
 
     def close(self) -> None:
@@ -237,7 +333,8 @@ class AssemblyApp:
             self._place()
 
     def _place(self) -> None:
-        """Put every part where the step and the lift say (hide those not there yet)."""
+        """Put every part where the step and the lift say, or where the loaded episode has
+        it at its time step (hide those not there yet)."""
         from assetgen.core.rotations import matrix_to_quat
 
         with self.lock:
@@ -245,11 +342,16 @@ class AssemblyApp:
             if v is None:
                 return
             lift = float(self.g_lift.value) / 1e3
+            ep = self.episode if self.episode and self.episode.assembly_id == v.id else None
+            at = ep.at(int(self.g_ep_step.value)) if ep is not None else None
             for part in ["base", *v.parts]:
                 h = self.handles.get(part)
                 if h is None:
                     continue
-                pose = v.pose(part, self.step, lift)
+                if at is not None:
+                    pose = at.get(part, np.eye(4) if part == "base" else None)
+                else:
+                    pose = v.pose(part, self.step, lift)
                 h.visible = pose is not None
                 if pose is not None:
                     h.position = pose[:3, 3]

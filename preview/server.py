@@ -845,10 +845,11 @@ def serve(
         assembly = ds.spec.family != "peg-in-hole"
     except PreviewError:
         assembly = False  # the Table I viewer reports it in the page and keeps serving
-    if assembly and (policy is not None or episode is not None):
+    if assembly and policy is not None:
         raise PreviewError(
-            f"{dataset} holds assemblies: the viewer shows their parts and steps; a policy "
-            "or an episode plays on a peg-in-hole dataset (for assemblies: `assetgen eval`)"
+            f"{dataset} holds assemblies: the viewer shows their parts, steps and recorded "
+            "attempts; a live policy plays on a peg-in-hole dataset (for assemblies: "
+            "`assetgen eval --record DIR`, then --episode FILE)"
         )
     live = None
     if policy is not None:
@@ -873,6 +874,8 @@ def serve(
         app_a = AssemblyApp(server, ds)
         if module is not None:
             app_a.show_module(module)
+        if episode is not None:
+            app_a.load_episode(episode)
         return ViewerHandle(server, app_a, url, host, bound)  # type: ignore[arg-type]
     app = PreviewApp(server, console)
     app.open_dataset(dataset, module=module)

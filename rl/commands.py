@@ -282,8 +282,8 @@ class EvalHooks:
     is_sequence: Callable[[str], bool] | None = None
     """dataset -> whether it holds assemblies, played stage by stage by `run_sequence`."""
     run_sequence: Callable[..., dict[str, Any]] | None = None
-    """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=,
-    progress=) -> results per stage and for the whole sequence (sim/sequence.py)."""
+    """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=, record=,
+    record_limit=) -> results per stage and for the whole sequence (sim/sequence.py)."""
 
 
 def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
@@ -303,8 +303,6 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
-        if sequence and record is not None:
-            raise ValueError("--record: recording is for peg-in-hole datasets, not assemblies")
         reset = None
         wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
         if run is not None:
@@ -367,7 +365,8 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             assert hooks.run_sequence is not None
             res = hooks.run_sequence(
                 args.dataset, policy, args.episodes, seed=args.seed, reset=reset, wrap=wrap,
-                noise_scale=noise_scale,
+                noise_scale=noise_scale, record=None if record is None else Path(record),
+                record_limit=getattr(args, "record_limit", None),
             )  # fmt: skip
             return _sequence_out(args, {**head, "dataset": str(args.dataset),
                                         "attempts": args.episodes, "seed": args.seed, **res},

@@ -54,25 +54,45 @@ def pressed_home(
 
 class _Ends:
     """rl/evaluate.py's Recorder that keeps each counted episode's outcome, time to success
-    and the part's final pose, by (env, attempt)."""
+    and the part's final pose, by (env, attempt); and, for the (env, attempt) pairs in
+    `trace`, the part's true pose (7,) after every control step, the spawn first."""
 
-    def __init__(self, n: int, attempts: int) -> None:
+    def __init__(self, n: int, attempts: int, trace: set[tuple[int, int]] = frozenset()) -> None:
         self.outcome = np.full((n, attempts), -1, dtype=np.int8)
         self.time = np.full((n, attempts), np.nan)
         self.pose = np.zeros((n, attempts, 7))
+        self.trace = trace
+        self.paths: dict[tuple[int, int], np.ndarray] = {}
+        self._now: dict[int, list[np.ndarray]] = {}
+
+    @staticmethod
+    def _state(env: Any) -> np.ndarray:
+        while not hasattr(env, "sim"):  # observation stacking wraps the env
+            env = env.env
+        return env.sim.state[:, 1:8]
 
     def begin(self, env: Any) -> None:
-        del env
+        if self.trace:
+            state = self._state(env)
+            self._now = {i: [state[i].copy()] for i in {i for i, _ in self.trace}}
 
     def step(self, env: Any, reward: np.ndarray, done: np.ndarray, info: dict[str, Any],
              live: np.ndarray, attempts: np.ndarray) -> None:  # fmt: skip
-        del env, reward
+        del reward
+        for i in self._now:
+            if live[i]:
+                self._now[i].append(np.asarray(info["peg_pose"][i], float).copy())
         for i in np.flatnonzero(done & live):
             j = attempts[i]
             ok, failed = bool(info["success"][i]), bool(info["failure"][i])
             self.outcome[i, j] = SUCCESS if ok else FAILURE if failed else TRUNCATED
             self.time[i, j] = info["time_to_success"][i]
             self.pose[i, j] = info["peg_pose"][i]
+            if i in self._now:
+                if (i, int(j)) in self.trace:
+                    self.paths[(i, int(j))] = np.array(self._now[i])
+                # the env has spawned its next episode already: that is where it starts
+                self._now[i] = [self._state(env)[i].copy()]
 
 
 def _offset(
@@ -112,12 +132,16 @@ def evaluate_sequence(
     wrap: Callable[[PegInHoleVecEnv], Any] | None = None,
     chunk: int = 256,
     progress: Callable[[str, int, int], None] | None = None,
+    record: Path | None = None,
+    record_limit: int | None = None,
 ) -> dict[str, Any]:
     """Play every assembly in `module_dirs` `attempts` times through all its steps.
 
     policy, reset : as rl/evaluate.py's (a recurrent policy's state restarts each episode)
     wrap          : applied to each stage's env (observation stacking)
     progress      : (stage part, episodes done, episodes of the stage)
+    record        : a folder for the first attempt of the first `record_limit` assemblies
+                    (default: each assembly's), one .npz per attempt (see save_sequence)
 
     Returns a JSON-ready dict: `stages` (one summary per step: episodes played, rates over
     them, and `success_rate_of_attempts`, the share of all attempts that got this far and
@@ -147,6 +171,8 @@ def evaluate_sequence(
     outcomes = np.full((len(parts), n, attempts), -1, dtype=np.int8)
     times = np.full((len(parts), n, attempts), np.nan)
     env_steps = 0
+    traced = set() if record is None else {(a, 0) for a in range(min(n, record_limit or n))}
+    paths: dict[tuple[int, int], list[np.ndarray]] = {key: [] for key in traced}
 
     def keep(k: int, ends: _Ends, rows: list[tuple[int, int]], col: int | None) -> None:
         """Stage k's outcomes by (assembly, attempt); its successes pressed home."""
@@ -163,13 +189,15 @@ def evaluate_sequence(
     for k, part in enumerate(parts):
         if k == 0:
             env = PegInHoleVecEnv([s.stage(0) for s in stages], n, config, assignment_seed=seed)
-            ends = _Ends(n, attempts)
+            ends = _Ends(n, attempts, traced)
             shifted = _offset(progress, part, 0, n * attempts)
             res = evaluate(policy, wrap(env), attempts, seed=seed, reset=reset,
                            progress=shifted, recorder=ends)  # fmt: skip
             env_steps += res["env_steps"]
             for j in range(attempts):
                 keep(0, ends, [(a, j) for a in range(n)], None)
+            for key, path in ends.paths.items():
+                paths[key].append(path)
             continue
         alive = (outcomes[:k] == SUCCESS).all(axis=0)
         todo = [(int(a), int(j)) for a, j in zip(*np.nonzero(alive), strict=True)]
@@ -177,13 +205,26 @@ def evaluate_sequence(
             rows = todo[c : c + chunk]
             assets = [stages[a].stage(k, placed[(a, j)]) for a, j in rows]
             env = PegInHoleVecEnv(assets, len(assets), config, assignment_seed=seed)
-            ends = _Ends(len(rows), 1)
+            ends = _Ends(len(rows), 1, {(i, 0) for i, key in enumerate(rows) if key in traced})
             shifted = _offset(progress, part, c, len(todo))
             res = evaluate(policy, wrap(env), 1, seed=seed + 1_000_003 * k + c, reset=reset,
                            progress=shifted, recorder=ends)  # fmt: skip
             env_steps += res["env_steps"]
             keep(k, ends, rows, 0)
+            for (i, _), path in ends.paths.items():
+                paths[rows[i]].append(path)
 
+    for a, j in sorted(paths):
+        st = stages[a]
+        save_sequence(
+            Path(record) / f"sequence_{st.dir.name}_{j}.npz",  # type: ignore[arg-type]
+            str(st.meta.get("id", st.dir.name)),
+            parts,
+            paths[(a, j)],
+            outcomes[: len(paths[(a, j)]), a, j],
+            [placed.get((a, j), {}).get(p, np.full((4, 4), np.nan)) for p in parts],
+            config.control_dt,
+        )
     done = (outcomes == SUCCESS).all(axis=0)
     seq_times = np.nansum(times, axis=0)[done]
     stage_rows = []
@@ -214,6 +255,33 @@ def evaluate_sequence(
     }
 
 
+def save_sequence(
+    path: Path,
+    assembly_id: str,
+    parts: list[str],
+    poses: list[np.ndarray],
+    outcome: np.ndarray,
+    placed: list[np.ndarray],
+    dt: float,
+) -> Path:
+    """One attempt at an assembly's sequence as an .npz for the viewer: assembly_id, parts
+    (the steps' parts in order), dt (s per control step), and per stage reached k:
+    poses_k (T_k, 7) the part's true position + quaternion (w x y z) in the module frame,
+    the spawn first; outcome (stages reached,) 0 success, 1 failure, 2 truncated; placed
+    (steps, 4, 4) where each successful part was pressed home and stayed (NaN otherwise)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(
+        path,
+        assembly_id=np.array(assembly_id),
+        parts=np.array(parts),
+        dt=np.array(float(dt)),
+        outcome=np.asarray(outcome, dtype=np.int8),
+        placed=np.asarray(placed, dtype=np.float64).reshape(len(parts), 4, 4),
+        **{f"poses_{k}": np.asarray(p, dtype=np.float32) for k, p in enumerate(poses)},
+    )
+    return path
+
+
 def is_assembly_dataset(dataset: str | Path) -> bool:
     """Whether `dataset` (a spec name or a folder) holds assemblies (a family other than
     Table I's peg-in-hole), which `assetgen eval` plays in sequence."""
@@ -237,6 +305,8 @@ def evaluate_assembly_dataset(
     wrap: Callable[[PegInHoleVecEnv], Any] | None = None,
     noise_scale: float = 1.0,
     progress: Callable[[str, int, int], None] | None = None,
+    record: Path | None = None,
+    record_limit: int | None = None,
 ) -> dict[str, Any]:
     """evaluate_sequence over every assembly of a dataset with the evaluation protocol's
     task config; the result names the dataset (folder and content hash) as `assetgen eval`'s
@@ -251,7 +321,8 @@ def evaluate_assembly_dataset(
         raise AssetError(f"{root} holds no finished assemblies; generate them first")
     res = evaluate_sequence(
         [ds.module_dir(m) for m in ds.ids], policy, attempts, config,
-        seed=seed, reset=reset, wrap=wrap, progress=progress,
+        seed=seed, reset=reset, wrap=wrap, progress=progress, record=record,
+        record_limit=record_limit,
     )  # fmt: skip
     return {
         "dataset_folder": str(root),
