@@ -252,15 +252,24 @@ def _free_travel(
     m, d = s.model, s.data
     start = d.qpos[s.qpos : s.qpos + 3].copy()
     mine = set(s.geoms.tolist())
-    pieces = [g for g in range(m.ngeom) if g not in mine and m.geom_conaffinity[g]]
+    pieces = np.array([g for g in range(m.ngeom) if g not in mine and m.geom_conaffinity[g]])
     fromto = np.zeros(6)
+    # only the pairs whose bounding spheres come within `march` of each other somewhere on
+    # the path (an assembly's part has a dozen pieces and its scene hundreds)
+    mujoco.mj_kinematics(m, d)
+    centre = d.geom_xpos[pieces]  # (P, 3), static
+    part = d.geom_xpos[s.geoms]  # (G, 3) at t = 0
+    rel = centre[None, :, :] - part[:, None, :]  # (G, P, 3)
+    along = np.clip(rel @ u, 0.0, limit)
+    gap = np.linalg.norm(rel - along[..., None] * u, axis=2)
+    reach = m.geom_rbound[s.geoms][:, None] + m.geom_rbound[pieces][None, :] + march
+    near_a, near_b = np.nonzero(gap <= reach)
+    pairs = [(int(s.geoms[a]), int(pieces[b])) for a, b in zip(near_a, near_b, strict=True)]
 
     def clear(t: float) -> bool:
         d.qpos[s.qpos : s.qpos + 3] = start + t * u
         mujoco.mj_kinematics(m, d)
-        return all(
-            mujoco.mj_geomDistance(m, d, a, g, march, fromto) > 0 for a in s.geoms for g in pieces
-        )
+        return all(mujoco.mj_geomDistance(m, d, a, g, march, fromto) > 0 for a, g in pairs)
 
     lo = 0.0
     result = limit
