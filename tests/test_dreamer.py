@@ -140,12 +140,15 @@ def test_imagination_shapes_and_losses() -> None:
     agent = Dreamer(4, 2, 3, TINY)
     start = agent.wm.rssm.initial(6)
     for backprop in (True, False):
-        traj, actions = imagine(agent.wm, agent.ac.actor, start, TINY.horizon, backprop)
+        traj, actions, policy = imagine(agent.wm, agent.ac.actor, start, TINY.horizon, backprop)
         h = TINY.horizon + 1
         assert traj.deter.shape == (h, 6, TINY.deter)
         assert traj.stoch.shape == traj.logits.shape == (h, 6, TINY.stoch, TINY.classes)
         assert traj.feat().shape == (h, 6, agent.wm.feat_dim) and actions.shape == (h, 6, 2)
         assert torch.allclose(traj.stoch[1:].sum(-1), torch.ones(()))  # one-hot latents
+        assert policy.mean.shape == policy.std.shape == (h, 6, 2)
+        # the returned policy is the one the actions were drawn from (no second actor pass)
+        assert torch.equal(policy.mean, agent.ac.actor(traj.feat()).mean)
     terminal = torch.tensor([False, True, False, False, False, True])
     actor_loss, critic_loss, metrics = agent.ac.losses(agent.wm, start, terminal)
     assert actor_loss.shape == critic_loss.shape == ()

@@ -28,23 +28,29 @@ class Actor(nn.Module):
 
 def imagine(
     wm: WorldModel, actor: Actor, start: State, horizon: int, reparameterise: bool
-) -> tuple[State, torch.Tensor]:
+) -> tuple[State, torch.Tensor, BoundedNormal]:
     """Roll the prior forward `horizon` steps from `start` (N, ...) with actions drawn from
-    the actor: states s_0..s_H (H + 1, N, ...) and actions a_0..a_H (H + 1, N, A), a_t taken
-    at s_t (a_H is only used for the entropy). The actor reads sg(s_t), as in the official
-    code: with `reparameterise` the gradient reaches it through the actions only."""
-    states, actions = [start], []
+    the actor: states s_0..s_H (H + 1, N, ...), actions a_0..a_H (H + 1, N, A), a_t taken
+    at s_t (a_H is only used for the entropy), and the policy pi(. | s_t) at every state
+    (H + 1, N, A), which the losses reuse instead of running the actor again. The actor
+    reads sg(s_t), as in the official code: with `reparameterise` the gradient reaches it
+    through the actions; without, the actions are detached and the gradient reaches the
+    actor only through the returned policy (its log-probabilities and entropy)."""
+    states, actions, outs = [start], [], []
     state = start
     for t in range(horizon + 1):
-        dist = actor(state.feat().detach())
+        out = actor.net(state.feat().detach())
+        dist = BoundedNormal(out, actor.cfg.min_std, actor.cfg.max_std)
         action = dist.rsample() if reparameterise else dist.rsample().detach()
         actions.append(action)
+        outs.append(out)
         if t < horizon:
             state = wm.rssm.img_step(state, action)
             states.append(state)
     start_logits = torch.zeros_like(start.stoch) if start.logits is None else start.logits
     states[0] = State(start.deter, start.stoch, start_logits)
-    return stack_states(states, 0), torch.stack(actions)
+    policy = BoundedNormal(torch.stack(outs), actor.cfg.min_std, actor.cfg.max_std)
+    return stack_states(states, 0), torch.stack(actions), policy
 
 
 class ActorCritic(nn.Module):
@@ -86,23 +92,30 @@ class ActorCritic(nn.Module):
         wm.requires_grad_(False)
         self.critic.requires_grad_(False)
         try:
+            # the graph holds the actor always; the world model's activations only with
+            # backprop (without, the actions are detached and no input of the world model
+            # asks for a gradient, so imagining costs a forward pass)
+            traj, actions, dist = imagine(wm, self.actor, start, cfg.horizon, backprop)
             with torch.set_grad_enabled(backprop):
-                traj, actions = imagine(wm, self.actor, start, cfg.horizon, backprop)
                 feat = traj.feat()  # (H + 1, N, F)
                 reward = wm.twohot.mean(wm.reward(feat[1:]))
                 # the official code uses the continue head's mode in imagination
-                cont = (wm.cont(feat[1:]).squeeze(-1) > 0).to(feat.dtype)
-                cont = torch.cat([(1.0 - terminal.to(feat.dtype))[None], cont])
-                value = self.value(feat)
-                ret = lambda_returns(reward, cont[1:], value, cfg.gamma, cfg.lam)
+                cont = (wm.cont(feat[1:]).squeeze(-1) > 0).float()
+                cont = torch.cat([(1.0 - terminal.float())[None], cont])
+                if backprop:  # the bootstrap values carry the actor's gradient too
+                    value = self.value(feat)
         finally:
             wm.requires_grad_(True)
             self.critic.requires_grad_(True)
+        sg_feat = feat.detach()
+        logits = self.critic(sg_feat)  # the critic's own pass, trained below
+        if not backprop:  # one critic pass serves the returns and the loss
+            value = self.twohot.mean(logits.detach())
+        ret = lambda_returns(reward, cont[1:], value, cfg.gamma, cfg.lam)
         weight = (torch.cumprod(cfg.gamma * cont, 0) / cfg.gamma).detach()
         self.retnorm.update(ret)
         scale = self.retnorm.scale()
         adv = (ret - value[:-1].detach()) / scale
-        dist = self.actor(feat.detach())
         entropy = dist.entropy()[:-1]
         if backprop:
             pg = -adv
@@ -110,12 +123,11 @@ class ActorCritic(nn.Module):
             pg = -dist.log_prob(actions.detach())[:-1] * adv.detach()
         actor_loss = (weight[:-1] * (pg - cfg.entropy_coef * entropy)).mean()
 
-        sg_feat, target = feat[:-1].detach(), ret.detach()
-        logits = self.critic(sg_feat)
+        target = ret.detach()
         with torch.no_grad():
-            slow = self.twohot.mean(self.slow_critic(sg_feat))
-        critic_nll = -self.twohot.log_prob(logits, target)
-        slow_nll = -self.twohot.log_prob(logits, slow)
+            slow = self.twohot.mean(self.slow_critic(sg_feat[:-1]))
+        critic_nll = -self.twohot.log_prob(logits[:-1], target)
+        slow_nll = -self.twohot.log_prob(logits[:-1], slow)
         critic_loss = (weight[:-1] * (critic_nll + cfg.slowreg * slow_nll)).mean()
         check_finite("Dreamer actor", actor_loss, advantage=adv.mean(), entropy=entropy.mean())
         check_finite("Dreamer critic", critic_loss, returns=ret.mean(), value=value.mean())

@@ -223,6 +223,11 @@ class Dreamer:
 
     # ---------------------------------------------------------------- learning
 
+    def _autocast(self) -> torch.autocast:
+        """The gradient steps' compute dtype (DreamerConfig.compute_dtype)."""
+        bf16 = self.cfg.compute_dtype == "bfloat16"
+        return torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=bf16)
+
     def _batch(self) -> dict[str, torch.Tensor]:
         b = self.replay.sample(self.cfg.batch_size, self.cfg.batch_length, self.rng)
         return {k: torch.as_tensor(v, device=self.device) for k, v in b.items()}
@@ -230,7 +235,8 @@ class Dreamer:
     def _train_step(self) -> None:
         cfg = self.cfg
         batch = self._batch()
-        model_loss, post, metrics = self.wm.loss(batch)
+        with self._autocast():
+            model_loss, post, metrics = self.wm.loss(batch)
         check_finite("Dreamer world model", model_loss, **metrics)
         self.model_opt.zero_grad(set_to_none=True)
         model_loss.backward()
@@ -244,7 +250,8 @@ class Dreamer:
         start = State(post.deter.detach().reshape(-1, d), post.stoch.detach().reshape(-1, s, c),
                       post.logits.detach().reshape(-1, s, c))  # fmt: skip
         terminal = batch["is_terminal"].reshape(-1)
-        actor_loss, critic_loss, ac_metrics = self.ac.losses(self.wm, start, terminal)
+        with self._autocast():
+            actor_loss, critic_loss, ac_metrics = self.ac.losses(self.wm, start, terminal)
         if self.teacher is not None and cfg.bc_weight > 0:
             # labelled at sampling time: the teachers are functions of the observation, so
             # this equals labelling at storage time and keeps the replay's layout

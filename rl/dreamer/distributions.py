@@ -53,15 +53,17 @@ class TwoHot:
 
     def mean(self, logits: torch.Tensor) -> torch.Tensor:
         """The prediction symexp(E_p[b]) of logits (..., bins) -> (...)."""
-        return self.decode(torch.softmax(logits, -1))
+        return self.decode(torch.softmax(logits.float(), -1))
 
     def log_prob(self, logits: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
         """sum_i w_i(y) log softmax(logits)_i: logits (..., bins), y (...) -> (...)."""
-        return (self.encode(y) * F.log_softmax(logits, -1)).sum(-1)
+        return (self.encode(y.float()) * F.log_softmax(logits.float(), -1)).sum(-1)
 
 
 def unimix_logits(logits: torch.Tensor, unimix: float) -> torch.Tensor:
-    """Log-probabilities of (1 - unimix) softmax(logits) + unimix / classes (last axis)."""
+    """Log-probabilities of (1 - unimix) softmax(logits) + unimix / classes (last axis),
+    in float32 whatever the logits' dtype (distributions stay float32 under bfloat16)."""
+    logits = logits.float()
     if unimix <= 0:
         return F.log_softmax(logits, -1)
     probs = (1.0 - unimix) * torch.softmax(logits, -1) + unimix / logits.shape[-1]
@@ -110,7 +112,7 @@ class BoundedNormal:
     tanh(m) and samples are clipped to [-1, 1] by the caller before they reach the env."""
 
     def __init__(self, out: torch.Tensor, min_std: float, max_std: float) -> None:
-        m, raw = out.chunk(2, -1)
+        m, raw = out.float().chunk(2, -1)
         self.mean = torch.tanh(m)
         self.std = (max_std - min_std) * torch.sigmoid(raw + 2.0) + min_std
 

@@ -199,11 +199,11 @@ class WorldModel(nn.Module):
             self.embed(batch["obs"]), batch["prev_action"], batch["is_first"]
         )
         feat = post.feat()
-        obs_loss = (self.decoder(feat) - symlog(batch["obs"])).pow(2).sum(-1)
+        obs_loss = (self.decoder(feat).float() - symlog(batch["obs"])).pow(2).sum(-1)
         reward_loss = -self.twohot.log_prob(self.reward(feat), batch["reward"])
         cont_target = 1.0 - batch["is_terminal"].to(feat.dtype)
         cont_loss = F.binary_cross_entropy_with_logits(
-            self.cont(feat).squeeze(-1), cont_target, reduction="none"
+            self.cont(feat).float().squeeze(-1), cont_target, reduction="none"
         )
         dyn, rep, kl = kl_losses(post.logits, prior.logits, cfg.free_nats)
         pred = obs_loss + reward_loss + cont_loss
