@@ -20,8 +20,10 @@ from rl.dreamer.distributions import (
     TwoHot,
     kl_losses,
     lambda_returns,
+    sample_straight_through,
     symexp,
     symlog,
+    unimix_logits,
 )
 from rl.dreamer.replay import ReplayMemoryError, SequenceReplay
 from rl.dreamer.world_model import State
@@ -132,7 +134,69 @@ def test_return_normalizer_percentiles_and_ema() -> None:
     assert norm.scale().item() == pytest.approx(width, rel=1e-3)
 
 
+def test_straight_through_samples_follow_the_probabilities() -> None:
+    """One-hot samples whose class frequencies are the probabilities (inverse-CDF sampling,
+    every class reachable, unimix included) and whose gradient is the probabilities'."""
+    torch.manual_seed(0)
+    probs = torch.tensor([[0.7, 0.2, 0.1, 0.0], [0.25, 0.25, 0.25, 0.25]], dtype=torch.float64)
+    log_p = unimix_logits(torch.log(probs.clamp(min=1e-30)), 0.01).to(torch.float64)
+    expect = log_p.exp()
+    n = 200_000
+    logits = log_p.expand(n, 2, 4).clone().requires_grad_(True)
+    sample = sample_straight_through(logits)
+    assert torch.allclose(sample.detach().sum(-1), torch.ones(n, 2, dtype=torch.float64))
+    assert set(sample.detach().unique().round(decimals=9).tolist()) == {0.0, 1.0}
+    freq = sample.detach().mean(0)
+    assert torch.all((freq - expect).abs() < 4 * torch.sqrt(expect * (1 - expect) / n))
+    assert freq[0, 3] > 0  # the class of probability 0 is drawn through the uniform mix
+    # straight-through: d sample / d logits is d probs / d logits
+    w = torch.arange(4, dtype=torch.float64)
+    (sample * w).sum().backward()
+    ref = logits.detach().clone().requires_grad_(True)
+    (ref.exp() * w).sum().backward()
+    assert torch.allclose(logits.grad, ref.grad)
+
+
 # ----------------------------------------------------------------------------- parts
+
+
+def test_obs_scale_sets_the_unit_of_the_encoder_and_the_decoder_target() -> None:
+    from dataclasses import replace
+
+    torch.manual_seed(0)
+    obs = torch.tensor([[0.001, -0.25, 0.1, 1.0]])
+    one = Dreamer(4, 2, 3, TINY).wm
+    torch.manual_seed(0)
+    mm = Dreamer(4, 2, 3, replace(TINY, obs_scale=1000.0)).wm
+    assert torch.allclose(mm.embed(obs), one.embed(1000.0 * obs))
+    batch = {"obs": obs.expand(1, 3, 4), "prev_action": torch.zeros(1, 3, 2),
+             "reward": torch.zeros(1, 3), "is_first": torch.tensor([[True, False, False]]),
+             "is_terminal": torch.zeros(1, 3, dtype=torch.bool)}  # fmt: skip
+    torch.manual_seed(1)
+    _, _, m_mm = mm.loss(batch)
+    torch.manual_seed(1)
+    _, _, m_one = one.loss(batch | {"obs": 1000.0 * batch["obs"]})
+    assert torch.allclose(m_mm["obs_loss"], m_one["obs_loss"])
+    with pytest.raises(ValueError, match="obs_scale"):
+        replace(TINY, obs_scale=0.0).validate()
+
+
+def test_bfloat16_gradient_steps_keep_float32_distributions() -> None:
+    from dataclasses import replace
+
+    torch.manual_seed(0)
+    agent = Dreamer(4, 2, 3, replace(TINY, compute_dtype="bfloat16", warmup_steps=0))
+    env = ToyEnv(3)
+    obs = env.reset(seed=0)
+    for _ in range(12):
+        obs, r, term, trunc, info = env.step(agent.act(obs))
+        agent.process_step(obs, r, term, trunc, info)
+    assert agent.grad_steps > 0
+    metrics = agent.update(obs)
+    assert all(math.isfinite(v) for v in metrics.values())
+    assert all(p.dtype == torch.float32 for p in agent.wm.parameters())
+    with pytest.raises(ValueError, match="compute_dtype"):
+        replace(TINY, compute_dtype="float16").validate()
 
 
 def test_imagination_shapes_and_losses() -> None:

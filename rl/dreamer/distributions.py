@@ -74,7 +74,11 @@ def sample_straight_through(log_probs: torch.Tensor) -> torch.Tensor:
     """A one-hot sample (..., classes) whose gradient is that of the probabilities:
     onehot + p - sg(p) (straight-through estimator)."""
     probs = log_probs.exp()
-    idx = torch.multinomial(probs.reshape(-1, probs.shape[-1]), 1).reshape(probs.shape[:-1])
+    # inverse-CDF sampling, one uniform number per latent: torch.multinomial draws an
+    # exponential number per class and took a tenth of a cpu-preset gradient step
+    u = torch.rand(probs.shape[:-1], device=probs.device, dtype=probs.dtype)
+    cdf = probs.detach().cumsum(-1)
+    idx = (cdf < u.unsqueeze(-1) * cdf[..., -1:]).sum(-1).clamp(max=probs.shape[-1] - 1)
     onehot = F.one_hot(idx, probs.shape[-1]).to(probs.dtype)
     return onehot + probs - probs.detach()
 

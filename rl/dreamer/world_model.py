@@ -183,15 +183,16 @@ class WorldModel(nn.Module):
         return self.cfg.deter + self.cfg.stoch * self.cfg.classes
 
     def embed(self, obs: torch.Tensor) -> torch.Tensor:
-        """e = encoder(symlog(obs)): the symlog bounds the inputs whatever their scale."""
-        return self.encoder(symlog(obs))
+        """e = encoder(symlog(k obs)), k = obs_scale: the symlog bounds the inputs whatever
+        their scale."""
+        return self.encoder(symlog(self.cfg.obs_scale * obs))
 
     def loss(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, State, dict]:
         """The world-model loss of a batch of sequences (B, T, ...): obs, prev_action,
         reward, is_first, is_terminal. Returns (loss, posterior states, metrics):
 
             L = pred (L_obs + L_reward + L_cont) + dyn L_dyn + rep L_rep   (mean over B, T)
-            L_obs = ||decoder(h, z) - symlog(o)||^2 (summed over dims)
+            L_obs = ||decoder(h, z) - symlog(k o)||^2 (summed over dims), k = obs_scale
             L_reward = -log p_twohot(r | h, z),  L_cont = -log Bernoulli(1 - terminal | h, z)
         """
         cfg = self.cfg
@@ -199,7 +200,8 @@ class WorldModel(nn.Module):
             self.embed(batch["obs"]), batch["prev_action"], batch["is_first"]
         )
         feat = post.feat()
-        obs_loss = (self.decoder(feat).float() - symlog(batch["obs"])).pow(2).sum(-1)
+        target = symlog(cfg.obs_scale * batch["obs"])
+        obs_loss = (self.decoder(feat).float() - target).pow(2).sum(-1)
         reward_loss = -self.twohot.log_prob(self.reward(feat), batch["reward"])
         cont_target = 1.0 - batch["is_terminal"].to(feat.dtype)
         cont_loss = F.binary_cross_entropy_with_logits(
