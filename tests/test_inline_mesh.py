@@ -108,3 +108,24 @@ def test_bad_inline_meshes_are_named(case: str) -> None:
     text = element if case == "not xml" else f"<mujoco><asset>{element}</asset></mujoco>"
     with pytest.raises(ValueError, match=r"mod\.xml.*" + message):
         read_inline_meshes(text, "mod.xml")
+
+
+def test_several_meshes_read_alike_however_the_numbers_are_spaced() -> None:
+    """The whole-document parse (numbers as the writer spaces them) and the mesh-by-mesh
+    parse (any whitespace, e.g. a file re-indented by hand) give the same arrays; a bad
+    second mesh is still named."""
+    meshes = dict(zip("abc", stored([_box((0, 0, 0), (0.01, 0.02, 0.03)),
+                                     _box((-0.05, 0.1, 0.0), (0.0, 0.125, 0.001)),
+                                     _box((0.1, 0.1, 0.1), (0.2, 0.2, 0.2))]), strict=True))  # fmt: skip
+    text = _document(meshes)
+    respaced = text.replace('vertex="', 'vertex="\n  ').replace(" ", "  ")
+    respaced = respaced.replace("<mesh  ", "<mesh ").replace('"  ', '" ')
+    assert respaced != text
+    for doc in (text, respaced):
+        back = read_inline_meshes(doc)
+        assert list(back) == list("abc")
+        assert all(same_mesh(back[k], meshes[k]) for k in "abc")
+    head, tail = text.split('<mesh name="b"')
+    broken = head + '<mesh name="b"' + tail.replace('face="', 'face="0 1 99 ', 1)
+    with pytest.raises(ValueError, match=r"mesh 'b': face index outside"):
+        read_inline_meshes(broken)
