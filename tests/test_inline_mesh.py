@@ -114,9 +114,12 @@ def test_several_meshes_read_alike_however_the_numbers_are_spaced() -> None:
     """The whole-document parse (numbers as the writer spaces them) and the mesh-by-mesh
     parse (any whitespace, e.g. a file re-indented by hand) give the same arrays; a bad
     second mesh is still named."""
-    meshes = dict(zip("abc", stored([_box((0, 0, 0), (0.01, 0.02, 0.03)),
-                                     _box((-0.05, 0.1, 0.0), (0.0, 0.125, 0.001)),
-                                     _box((0.1, 0.1, 0.1), (0.2, 0.2, 0.2))]), strict=True))  # fmt: skip
+    boxes = [
+        _box((0, 0, 0), (0.01, 0.02, 0.03)),
+        _box((-0.05, 0.1, 0.0), (0.0, 0.125, 0.001)),
+        _box((0.1, 0.1, 0.1), (0.2, 0.2, 0.2)),
+    ]
+    meshes = dict(zip("abc", stored(boxes), strict=True))
     text = _document(meshes)
     respaced = text.replace('vertex="', 'vertex="\n  ').replace(" ", "  ")
     respaced = respaced.replace("<mesh  ", "<mesh ").replace('"  ', '" ')
