@@ -416,6 +416,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--record-limit", type=int, default=None,
         help="episodes to record (assembly datasets: the first attempt of this many assemblies)",
     )  # fmt: skip
+    e.add_argument(
+        "--threads", type=int, default=None,
+        help="torch threads for a checkpoint's policy (default: half the cores, as in train; "
+        "more threads than free cores slow a run several times)",
+    )  # fmt: skip
     e.add_argument("--out", type=Path, help="write the results JSON here")
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
     e.set_defaults(func=cmd_eval)

@@ -290,6 +290,8 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     """`assetgen eval`: the paper's protocol for a built-in agent (args.agent) or a trained
     checkpoint (args.run), through the one loop of rl/evaluate.py. Prints a short table or a
     JSON line; args.out receives the JSON."""
+    import os
+
     import numpy as np
 
     from rl.evaluate import evaluate
@@ -313,6 +315,10 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             from rl.runner import load_agent, reset_hook
             from rl.stack import StackObs
 
+            threads = getattr(args, "threads", None)
+            if threads is not None and threads < 1:
+                raise ValueError(f"--threads {threads}: give at least 1")
+            torch.set_num_threads(threads or max(1, (os.cpu_count() or 2) // 2))
             # the recurrent agents sample their latents: seeded, an evaluation repeats exactly
             torch.manual_seed(args.seed)
             try:

@@ -48,6 +48,15 @@ def _train(env, out, setup=SETUP, **kw):
                  **kw)  # fmt: skip
 
 
+def _play(agent: Dreamer, env: ToyEnv, steps: int) -> np.ndarray:
+    """`steps` vector steps of `agent` acting and learning in `env`; the last observation."""
+    obs = env.reset(seed=0)
+    for _ in range(steps):
+        obs, r, term, trunc, info = env.step(agent.act(obs))
+        agent.process_step(obs, r, term, trunc, info)
+    return obs
+
+
 # ----------------------------------------------------------------------------- maths
 
 
@@ -186,11 +195,7 @@ def test_bfloat16_gradient_steps_keep_float32_distributions() -> None:
 
     torch.manual_seed(0)
     agent = Dreamer(4, 2, 3, replace(TINY, compute_dtype="bfloat16", warmup_steps=0))
-    env = ToyEnv(3)
-    obs = env.reset(seed=0)
-    for _ in range(12):
-        obs, r, term, trunc, info = env.step(agent.act(obs))
-        agent.process_step(obs, r, term, trunc, info)
+    obs = _play(agent, ToyEnv(3), 12)
     assert agent.grad_steps > 0
     metrics = agent.update(obs)
     assert all(math.isfinite(v) for v in metrics.values())
@@ -218,6 +223,29 @@ def test_imagination_shapes_and_losses() -> None:
     assert actor_loss.shape == critic_loss.shape == ()
     assert torch.isfinite(actor_loss) and torch.isfinite(critic_loss)
     assert abs(metrics["value_mean"].item()) < 1e-6  # the critic's zero-initialised output layer
+
+
+def test_acting_step_without_prior_gives_the_same_posterior() -> None:
+    """The acting step skips the prior's head; its posterior is the training step's."""
+    torch.manual_seed(0)
+    agent = Dreamer(4, 2, 3, TINY)
+    rssm = agent.wm.rssm
+    prev = rssm.initial(5)
+    prev = State(prev.deter + 0.1 * torch.randn_like(prev.deter), prev.stoch)
+    action, embed = torch.randn(5, 2), agent.wm.embed(torch.randn(5, 4))
+    first = torch.tensor([True, False, False, True, False])
+    with torch.no_grad():
+        post, prior = rssm.obs_step(prev, action, embed, first, sample=False)
+        fast, none = rssm.obs_step(prev, action, embed, first, sample=False, with_prior=False)
+    assert none is None and prior is not None
+    assert torch.equal(fast.deter, post.deter) and torch.equal(fast.stoch, post.stoch)
+    assert torch.equal(fast.logits, post.logits)
+    # the initial state is one row broadcast: writing into a copy leaves it alone
+    init = rssm.initial(3)
+    assert init.deter.shape == (3, TINY.deter) and init.stoch.shape[0] == 3
+    copy = init.deter.clone()
+    copy[0] += 1.0
+    assert torch.equal(rssm.initial(3).deter, init.deter)
 
 
 def test_recurrent_state_resets_where_episodes_end() -> None:
@@ -283,11 +311,7 @@ def test_bc_term_pulls_the_policy_to_the_teacher() -> None:
         torch.manual_seed(0)
         agent = Dreamer(4, 2, 3, replace(TINY, bc_weight=bc_weight, actor_lr=1e-2))
         agent.set_teacher(lambda o: np.tile(target, (len(o), 1)))
-        env = ToyEnv(3)
-        obs = env.reset(seed=0)
-        for _ in range(120):
-            obs, r, term, trunc, info = env.step(agent.act(obs))
-            agent.process_step(obs, r, term, trunc, info)
+        obs = _play(agent, ToyEnv(3), 120)
         assert agent.grad_steps > 100
         metrics = agent.update(obs)
         assert ("bc_loss" in metrics) == (bc_weight > 0)

@@ -152,7 +152,7 @@ class Dreamer:
             self._init_state(len(obs))
         first = torch.as_tensor(self.first, device=self.device)
         post, _ = self.wm.rssm.obs_step(
-            self.state, self.prev_action, self.wm.embed(self._t(obs)), first
+            self.state, self.prev_action, self.wm.embed(self._t(obs)), first, with_prior=False
         )
         self.state = State(post.deter, post.stoch)
         self.first[:] = False

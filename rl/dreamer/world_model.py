@@ -109,15 +109,23 @@ class RSSM(nn.Module):
 
     def initial(self, batch: int) -> State:
         """The learned initial state, repeated `batch` times."""
-        deter = torch.tanh(self.init_deter).expand(batch, -1)
-        return State(deter, mode_onehot(self._dist(self.prior_net(deter))))
+        # computed once and broadcast: every row is the same (the acting step calls this
+        # for every vector step)
+        deter = torch.tanh(self.init_deter)[None]
+        stoch = mode_onehot(self._dist(self.prior_net(deter)))
+        return State(deter.expand(batch, -1), stoch.expand(batch, -1, -1))
+
+    def deter_step(self, prev: State, action: torch.Tensor) -> torch.Tensor:
+        """The deterministic part of a step: (h_(t-1), z_(t-1)), a_(t-1) -> h_t."""
+        # the official `action_clip: 1.0`: a / max(1, |a|)
+        action = action / torch.clamp(action.abs(), min=1.0).detach()
+        x = self.img_in(torch.cat([prev.stoch.flatten(-2), action], -1))
+        return self.gru(x, prev.deter)
 
     def img_step(self, prev: State, action: torch.Tensor, sample: bool = True) -> State:
         """One step of the prior: (h_(t-1), z_(t-1)), a_(t-1) -> (h_t, z_t ~ p(. | h_t))."""
         # the official `action_clip: 1.0`: a / max(1, |a|)
-        action = action / torch.clamp(action.abs(), min=1.0).detach()
-        x = self.img_in(torch.cat([prev.stoch.flatten(-2), action], -1))
-        deter = self.gru(x, prev.deter)
+        deter = self.deter_step(prev, action)
         logits = self._dist(self.prior_net(deter))
         stoch = sample_straight_through(logits) if sample else mode_onehot(logits)
         return State(deter, stoch, logits)
@@ -130,20 +138,23 @@ class RSSM(nn.Module):
         is_first: torch.Tensor,
         sample: bool = True,
         init: State | None = None,
-    ) -> tuple[State, State]:
+        with_prior: bool = True,
+    ) -> tuple[State, State | None]:
         """(posterior, prior) at t. Where is_first (B,) the previous state becomes the initial
         state (`init`, computed when not given) and the previous action zero: episodes never
-        see each other."""
+        see each other. with_prior=False skips the prior's head and returns None for it
+        (acting needs only the posterior; its latent is then the step's only draw)."""
         keep = (~is_first).to(embed.dtype)[:, None]
         init = init if init is not None else self.initial(len(is_first))
         prev = State(
             keep * prev.deter + (1 - keep) * init.deter,
             keep[..., None] * prev.stoch + (1 - keep[..., None]) * init.stoch,
         )
-        prior = self.img_step(prev, keep * prev_action, sample)
-        logits = self._dist(self.post_net(torch.cat([prior.deter, embed], -1)))
+        prior = self.img_step(prev, keep * prev_action, sample) if with_prior else None
+        deter = prior.deter if prior is not None else self.deter_step(prev, keep * prev_action)
+        logits = self._dist(self.post_net(torch.cat([deter, embed], -1)))
         stoch = sample_straight_through(logits) if sample else mode_onehot(logits)
-        return State(prior.deter, stoch, logits), prior
+        return State(deter, stoch, logits), prior
 
     def observe(
         self, embed: torch.Tensor, prev_action: torch.Tensor, is_first: torch.Tensor
