@@ -89,6 +89,14 @@ def _error(message: str) -> int:
     return 2
 
 
+def _torch_threads(threads: int | None) -> int:
+    """--threads, or by default half the cores (at least 1): the simulator's C threads need
+    the rest, and oversubscribed torch threads spin."""
+    import os
+
+    return threads or max(1, (os.cpu_count() or 2) // 2)
+
+
 def add_train_parser(
     subparsers: argparse._SubParsersAction,
     make_env: MakeEnv,
@@ -183,15 +191,13 @@ def train_main(
     make_probe_env: Callable[[str, int], Any] | None = None,
 ) -> int:
     """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
-    import os
-
     import torch
 
     from rl.checkpoint import CheckpointError
     from rl.presets import get_setup
     from rl.runner import console, train
 
-    torch.set_num_threads(args.threads or max(1, (os.cpu_count() or 2) // 2))
+    torch.set_num_threads(_torch_threads(args.threads))
     try:
         setup = get_setup(args.preset, args.algo)
         if args.steps is not None and args.steps < 1:
@@ -290,8 +296,6 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     """`assetgen eval`: the paper's protocol for a built-in agent (args.agent) or a trained
     checkpoint (args.run), through the one loop of rl/evaluate.py. Prints a short table or a
     JSON line; args.out receives the JSON."""
-    import os
-
     import numpy as np
 
     from rl.evaluate import evaluate
@@ -318,7 +322,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             threads = getattr(args, "threads", None)
             if threads is not None and threads < 1:
                 raise ValueError(f"--threads {threads}: give at least 1")
-            torch.set_num_threads(threads or max(1, (os.cpu_count() or 2) // 2))
+            torch.set_num_threads(_torch_threads(threads))
             # the recurrent agents sample their latents: seeded, an evaluation repeats exactly
             torch.manual_seed(args.seed)
             try:

@@ -240,12 +240,15 @@ def test_acting_step_without_prior_gives_the_same_posterior() -> None:
     assert none is None and prior is not None
     assert torch.equal(fast.deter, post.deter) and torch.equal(fast.stoch, post.stoch)
     assert torch.equal(fast.logits, post.logits)
-    # the initial state is one row broadcast: writing into a copy leaves it alone
+    # the initial state is one row broadcast; the agent's per-env state must still be rows of
+    # its own, or a write for one env (reset, acting) would reach every env
     init = rssm.initial(3)
     assert init.deter.shape == (3, TINY.deter) and init.stoch.shape[0] == 3
-    copy = init.deter.clone()
-    copy[0] += 1.0
-    assert torch.equal(rssm.initial(3).deter, init.deter)
+    agent.reset(np.ones(3, bool))
+    agent.state.deter[0] += 1.0
+    agent.state.stoch[0] *= 0.0
+    assert torch.equal(agent.state.deter[1], init.deter[1])
+    assert torch.equal(agent.state.stoch[2], init.stoch[2])
 
 
 def test_recurrent_state_resets_where_episodes_end() -> None:

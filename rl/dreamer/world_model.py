@@ -124,7 +124,6 @@ class RSSM(nn.Module):
 
     def img_step(self, prev: State, action: torch.Tensor, sample: bool = True) -> State:
         """One step of the prior: (h_(t-1), z_(t-1)), a_(t-1) -> (h_t, z_t ~ p(. | h_t))."""
-        # the official `action_clip: 1.0`: a / max(1, |a|)
         deter = self.deter_step(prev, action)
         logits = self._dist(self.prior_net(deter))
         stoch = sample_straight_through(logits) if sample else mode_onehot(logits)
