@@ -21,8 +21,8 @@ hole, so none comes nearer the part than the clearance.
 Each F_j is contained in the half-space beyond plane j: these cells refine "one outward
 plane per hole, clipped to the solid" into cells that do not overlap. A cell's vertices come
 from enumerating plane triples (assetgen.collision.triple_vertices), redundant planes are
-dropped between holes (a facet of a bounded polytope has at least three vertices), and the
-hull step (assetgen.collision.cell_meshes) turns the cells into meshes. Hand-written: no
+dropped between holes (a facet of a bounded polytope has at least three vertices), and
+assetgen.collision.cell_meshes turns the cells into meshes. Hand-written: no
 library decomposes exactly (CoACD approximates, and eats into a sub-millimetre gap).
 """
 
@@ -143,7 +143,7 @@ def carve(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[Mesh]:
     """The convex pieces (outward meshes, m) of `material` minus `holes` (see carve_cells);
     slivers below assetgen.collision.cell_meshes.MIN_PIECE_VOLUME are dropped."""
     cells = carve_cells(material, holes)
-    return cell_meshes(polytope_vertices_batch(cells))
+    return cell_meshes(cells)
 
 
 def carve_part(solids: Sequence[np.ndarray], holes: Sequence[np.ndarray]) -> list[Mesh]:

@@ -12,7 +12,8 @@ overlap, so their volumes add up to the module's (checked). The material is the 
 the hole (a local box; the far plate is four plain boxes, so a broadphase prunes them) and
 the sleeve below it. Cells' vertices come from enumerating plane triples in one compiled
 loop over all of a module's cells (assetgen.collision.triple_vertices: 6 - 71 planes a cell, ~0.7 ms
-a module in all); their hulls from qhull.
+a module in all), and their faces from the planes each vertex lies on
+(assetgen.collision.cell_meshes).
 """
 
 from __future__ import annotations
@@ -113,4 +114,4 @@ def exact_pieces(geom: ModuleGeometry) -> list[Mesh]:
         # neighbours' and the floor's (thickness may differ from the wall's) can bind.
         rows = np.unique(np.concatenate([[i, k - 1], nbrs[i]]))
         systems.append(np.vstack([mitred[rows], box_and_floor, cell]))
-    return cell_meshes(polytope_vertices_batch(systems))
+    return cell_meshes(systems)

@@ -19,14 +19,17 @@ from __future__ import annotations
 
 import numpy as np
 
+TOL = 1e-10
+"""A point this far (m) beyond a plane still counts as inside it, and this near as on it."""
 DET_MIN = 1e-6
 """|det| of a triple of unit normals below this: near-parallel planes, skipped. Their
 vertices would be off by eps / |det|; genuine vertices also come from well-conditioned
 triples."""
 
 
-def _enumerate(planes, starts, sizes, tol, out, owner):  # pragma: no cover - compiled
+def _enumerate(planes, starts, sizes, tol, out, owner, masks):  # pragma: no cover - compiled
     found = 0
+    words = masks.shape[1]
     for s in range(len(sizes)):
         base = starts[s]
         m = sizes[s]
@@ -54,10 +57,16 @@ def _enumerate(planes, starts, sizes, tol, out, owner):  # pragma: no cover - co
                     inside = True
                     for q in range(m):
                         p = planes[base + q]
-                        if x * p[0] + y * p[1] + z * p[2] - p[3] > tol:
+                        r = x * p[0] + y * p[1] + z * p[2] - p[3]
+                        if r > tol:
                             inside = False
                             break
-                    if inside:
+                        if words and r >= -tol:  # on plane q: bit q of the point's mask
+                            masks[found, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+                    if not inside:
+                        for w in range(words):
+                            masks[found, w] = 0
+                    else:
                         out[found, 0] = x
                         out[found, 1] = y
                         out[found, 2] = z
@@ -80,7 +89,7 @@ def _compiled():
     return _KERNEL
 
 
-def polytope_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> list[np.ndarray]:
+def polytope_vertices_batch(systems: list[np.ndarray], tol: float = TOL) -> list[np.ndarray]:
     """Vertices of each bounded polytope {n . x <= d} given as (m_i, 4) planes (unit normals).
 
     Vertices where more than three planes meet come out once per triple through them (the
@@ -88,19 +97,28 @@ def polytope_vertices_batch(systems: list[np.ndarray], tol: float = 1e-10) -> li
     """
     if not systems:
         return []
+    v, bounds, _ = enumerate_vertices(systems, tol, incidence=False)
+    return [v[bounds[i] : bounds[i + 1]] for i in range(len(systems))]
+
+
+def enumerate_vertices(
+    systems: list[np.ndarray], tol: float = TOL, *, incidence: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every polytope's vertices in one array, as polytope_vertices_batch finds them.
+
+    Returns (points (n, 3), bounds (len(systems) + 1,): polytope i's points are
+    points[bounds[i]:bounds[i + 1]], masks (n, words) uint64): with `incidence`, bit q of a
+    point's mask says it lies on plane q of its system (|n . x - d| <= tol); without, no
+    words.
+    """
     sizes = np.array([len(s) for s in systems], dtype=np.int64)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     planes = np.ascontiguousarray(np.vstack(systems), dtype=np.float64)
     capacity = int((sizes * (sizes - 1) * (sizes - 2) // 6).sum())
     out = np.empty((capacity, 3))
     owner = np.empty(capacity, np.int64)
-    found = _compiled()(planes, starts, sizes, tol, out, owner)
+    words = (int(sizes.max()) + 63) // 64 if incidence else 0
+    masks = np.zeros((capacity, words), np.uint64)
+    found = _compiled()(planes, starts, sizes, tol, out, owner, masks)
     bounds = np.searchsorted(owner[:found], np.arange(len(systems) + 1))
-    return [out[bounds[i] : bounds[i + 1]] for i in range(len(systems))]
-
-
-def warm_up() -> None:
-    """Load (or compile, on a fresh checkout: ~1 s, then cached) the kernel now, e.g. in a
-    parent process before it forks workers."""
-    eye = np.eye(3)
-    polytope_vertices_batch([np.column_stack([np.vstack([eye, -eye]), np.ones(6)])])
+    return out[:found], bounds, masks[:found]

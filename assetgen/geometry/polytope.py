@@ -8,9 +8,8 @@ convex decomposition of the module for free (see assetgen/collision/exact.py).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
-from scipy.spatial import HalfspaceIntersection
 
+from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.portable import dot, matmul
 
 
@@ -35,6 +34,8 @@ def interior_point(planes: np.ndarray, guess: np.ndarray | None = None) -> np.nd
     """
     if guess is not None and np.all(planes[:, :3] @ guess - planes[:, 3] < -1e-7):
         return guess
+    from scipy.optimize import linprog  # rarely needed: its import costs ~0.1 s
+
     # maximise r subject to n . x + r |n| <= d  (|n| = 1)
     k = len(planes)
     a = np.column_stack([planes[:, :3], np.ones(k)])
@@ -46,7 +47,9 @@ def interior_point(planes: np.ndarray, guess: np.ndarray | None = None) -> np.nd
     return res.x[:3]
 
 
-def polytope_vertices(planes: np.ndarray, inside: np.ndarray) -> np.ndarray:
-    """Vertices (m, 3) of the bounded polytope {n . x <= d} that strictly contains `inside`."""
-    hs = np.column_stack([planes[:, :3], -planes[:, 3]])
-    return HalfspaceIntersection(hs, inside).intersections
+def polytope_vertices(planes: np.ndarray) -> np.ndarray:
+    """Vertices (m, 3) of the bounded polytope {n . x <= d} (unit normals), by enumerating
+    plane triples (assetgen.collision.triple_vertices); a vertex where more than three planes
+    meet comes once per triple through it."""
+    (vertices,) = polytope_vertices_batch([planes])
+    return vertices

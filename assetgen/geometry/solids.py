@@ -200,7 +200,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
     inside = interior_point(capped, centre)
     if inside is None:
         raise GeometryError("the hole is empty for these parameters")
-    hole_vertices = polytope_vertices(capped, inside)
+    hole_vertices = polytope_vertices(capped)
 
     half = p.plate_size / 2
     t = p.plate_thickness
@@ -211,7 +211,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         raise GeometryError(
             "the hole does not reach the mounting surface; increase hole_depth_fraction"
         )
-    extent = np.abs(polytope_vertices(slab, inside)[:, :2]).max() + p.sleeve_wall
+    extent = np.abs(polytope_vertices(slab)[:, :2]).max() + p.sleeve_wall
     if extent > half:
         raise GeometryError(
             f"the hole with its {p.sleeve_wall * 1e3:g} mm wall reaches {extent * 1e3:.2f} mm "
@@ -227,7 +227,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
     floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
     inside = interior_point(sleeve_planes, floor_point)
     if inside is not None:
-        sleeve = polytope_vertices(sleeve_planes, inside)
+        sleeve = polytope_vertices(sleeve_planes)
         # a tilted, deep hole leans out: the sleeve hanging below the plate must stay inside
         # the plate's footprint, or the module is wider than its plate (and its neighbours')
         reach = np.abs(sleeve[:, :2]).max()
