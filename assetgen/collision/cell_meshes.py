@@ -21,8 +21,9 @@ neighbouring hole faces' cells meet), so:
   nanometres, so a face's triangles are flipped until every fold between them is convex
   for the snapped points: the mesh is then the hull of its vertices, as qhull's was;
 - every cell's triangles must close (each directed edge once, its reverse once, every
-  vertex used). A cell that does not, which takes near-coincident planes (none in the
-  decompositions of seeds 0-3071), goes to qhull (scipy) instead.
+  vertex used). A cell that does not, which takes near-coincident planes (none of the
+  90,054 cells of Table I seeds 0-3071, nor of the 38,821 of profile-bolt assemblies 0-149),
+  goes to qhull (scipy) instead.
 
 A cell's vertices are sorted lexicographically (x, then y, then z), as before: the vertex
 arrays are those qhull gave, and only the triangles differ.
