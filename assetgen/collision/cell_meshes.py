@@ -283,9 +283,7 @@ def _kernels():
         global _convex_folds  # _faces calls it: compiled first, under the same name
         # one explicit signature: left to infer, numba compiles it three times over (its
         # index arguments come as the literal 0 or as int64)
-        _convex_folds = njit("void(f8[:, ::1], i8, i8[:, ::1], i8, i8)", cache=True)(
-            _convex_folds
-        )
+        _convex_folds = njit("void(f8[:, ::1], i8, i8[:, ::1], i8, i8)", cache=True)(_convex_folds)
         _KERNELS = (njit(cache=True)(_cluster), njit(cache=True)(_faces))
     return _KERNELS
 
