@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from assetgen.collision.triple_vertices import enumerate_vertices
+from assetgen.collision.triple_vertices import Stacked, enumerate_vertices
 from assetgen.core.mesh import Mesh, cross3
 
 SNAP = 2e-8
@@ -47,8 +47,10 @@ MIN_PIECE_VOLUME = 1e-12
 """Pieces below this volume (m^3, a 0.1 mm cube) are slivers of numerical noise: dropped."""
 
 
-def _cluster(points, bounds, masks, merge2, cid, rep, cmask, cbounds):  # pragma: no cover
-    """Group each cell's points into vertices (compiled; see _kernels)."""
+def _cluster(points, bounds, masks, merge2, rep, cmask, cbounds):  # pragma: no cover
+    """Group each cell's points into vertices (compiled; see _kernels): vertex c is point
+    rep[c], with the planes cmask[c] of every point merged into it; cell s's vertices are
+    cbounds[s]:cbounds[s + 1]. Returns the number of vertices."""
     n = 0
     words = masks.shape[1]
     for s in range(len(bounds) - 1):
@@ -68,7 +70,6 @@ def _cluster(points, bounds, masks, merge2, cid, rep, cmask, cbounds):  # pragma
                 hit = n
                 rep[n] = r
                 n += 1
-            cid[r] = hit
             for w in range(words):
                 cmask[hit, w] |= masks[r, w]
     cbounds[len(bounds) - 1] = n
@@ -302,18 +303,15 @@ def cell_meshes(systems: list[np.ndarray]) -> list[Mesh]:
     if not systems:
         return []
     cluster, faces = _kernels()
-    points, bounds, masks = enumerate_vertices(systems)
+    planes, starts, sizes = stacked = Stacked.of(systems)
+    points, bounds, masks = enumerate_vertices(stacked)
     n = len(points)
-    cid = np.empty(n, np.int64)
     rep = np.empty(n, np.int64)
     cmask = np.zeros((n, masks.shape[1]), np.uint64)
     cbounds = np.empty(len(systems) + 1, np.int64)
-    nc = cluster(points, bounds, masks, MERGE * MERGE, cid, rep, cmask, cbounds)
+    nc = cluster(points, bounds, masks, MERGE * MERGE, rep, cmask, cbounds)
     # + 0.0 turns -0.0 into 0.0: equal coordinates are stored with one sign
     vpos = np.round(points[rep[:nc]] / SNAP) * SNAP + 0.0
-    sizes = np.array([len(s) for s in systems], dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-    planes = np.ascontiguousarray(np.vstack(systems), dtype=np.float64)
     nv = np.diff(cbounds)
     tris = np.empty((int((sizes * nv).sum()), 3), np.int64)
     tri_cell = np.empty(len(tris), np.int64)

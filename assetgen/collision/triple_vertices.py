@@ -17,6 +17,8 @@ the numpy form's up to the sign of zero, which the decomposition normalises.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 TOL = 1e-10
@@ -97,28 +99,43 @@ def polytope_vertices_batch(systems: list[np.ndarray], tol: float = TOL) -> list
     """
     if not systems:
         return []
-    v, bounds, _ = enumerate_vertices(systems, tol, incidence=False)
+    v, bounds, _ = enumerate_vertices(Stacked.of(systems), tol, incidence=False)
     return [v[bounds[i] : bounds[i + 1]] for i in range(len(systems))]
 
 
+class Stacked(NamedTuple):
+    """Several systems of planes in one array, as the compiled loops take them."""
+
+    planes: np.ndarray
+    """(sum m_i, 4) every system's rows, in order."""
+    starts: np.ndarray
+    """(systems,) int64: where system i's rows start."""
+    sizes: np.ndarray
+    """(systems,) int64: m_i."""
+
+    @classmethod
+    def of(cls, systems: list[np.ndarray]) -> Stacked:
+        sizes = np.array([len(s) for s in systems], dtype=np.int64)
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+        return cls(np.ascontiguousarray(np.vstack(systems), dtype=np.float64), starts, sizes)
+
+
 def enumerate_vertices(
-    systems: list[np.ndarray], tol: float = TOL, *, incidence: bool = True
+    systems: Stacked, tol: float = TOL, *, incidence: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every polytope's vertices in one array, as polytope_vertices_batch finds them.
 
-    Returns (points (n, 3), bounds (len(systems) + 1,): polytope i's points are
+    Returns (points (n, 3), bounds (len(systems.sizes) + 1,): polytope i's points are
     points[bounds[i]:bounds[i + 1]], masks (n, words) uint64): with `incidence`, bit q of a
     point's mask says it lies on plane q of its system (|n . x - d| <= tol); without, no
     words.
     """
-    sizes = np.array([len(s) for s in systems], dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-    planes = np.ascontiguousarray(np.vstack(systems), dtype=np.float64)
+    planes, starts, sizes = systems
     capacity = int((sizes * (sizes - 1) * (sizes - 2) // 6).sum())
     out = np.empty((capacity, 3))
     owner = np.empty(capacity, np.int64)
     words = (int(sizes.max()) + 63) // 64 if incidence else 0
     masks = np.zeros((capacity, words), np.uint64)
     found = _compiled()(planes, starts, sizes, tol, out, owner, masks)
-    bounds = np.searchsorted(owner[:found], np.arange(len(systems) + 1))
+    bounds = np.searchsorted(owner[:found], np.arange(len(sizes) + 1))
     return out[:found], bounds, masks[:found]
