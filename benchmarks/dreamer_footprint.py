@@ -39,16 +39,18 @@ def _rss_mb() -> float:
 
 
 def _fill(agent: Dreamer, rng: np.random.Generator) -> None:
-    """Write every replay row once (random steps), so every page is resident."""
+    """Fill the replay with random steps through its own `load`, so every page is resident."""
     replay = agent.replay
-    replay._allocate()
-    for data in replay.data.values():
-        if data.dtype == np.bool_:
-            data[...] = rng.random(data.shape) < 0.01
-        else:
-            data[...] = rng.standard_normal(data.shape, dtype=np.float32)
-    replay.count[:] = replay.per_env
-    replay.pos[:] = 0
+    arrays = {}
+    for key, (shape, dtype) in replay.specs.items():
+        full = (replay.num_envs, replay.per_env, *shape)
+        arrays[key] = (
+            rng.random(full) < 0.01
+            if dtype == np.bool_
+            else rng.standard_normal(full, dtype=np.float32)
+        )
+    full_count = [replay.per_env] * replay.num_envs
+    replay.load(arrays, {"pos": [0] * replay.num_envs, "count": full_count})
 
 
 def footprint(
