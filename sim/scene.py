@@ -169,7 +169,29 @@ def build_model(
     spacing: float = 2.0,
     pad_geoms: int = 0,
 ) -> mujoco.MjModel:
-    """One model holding `len(assets)` environments (one: the usual case; more: a shard).
+    """`build_spec(...)`, compiled."""
+    return build_spec(
+        assets,
+        physics,
+        max_lin_vel=max_lin_vel,
+        max_ang_vel=max_ang_vel,
+        spacing=spacing,
+        pad_geoms=pad_geoms,
+    ).compile()
+
+
+def build_spec(
+    assets: list[ModuleAsset],
+    physics: PhysicsConfig,
+    *,
+    max_lin_vel: float = 0.25,
+    max_ang_vel: float = math.pi / 2,
+    spacing: float = 2.0,
+    pad_geoms: int = 0,
+) -> mujoco.MjSpec:
+    """One model's spec holding `len(assets)` environments (one: the usual case; more: a
+    shard); callers may add to it (the contact stress benchmark adds a sensor) before
+    compiling.
 
     In a shard, env k sits at x = k * spacing with collision bit k mod 31 + 1... peg k only
     collides with module k's bit group, and same-bit modules are 31 * spacing apart.
@@ -197,4 +219,4 @@ def build_model(
         g.pos = [0.0, 0.0, -10.0]
         g.contype = 0
         g.conaffinity = 0
-    return spec.compile()
+    return spec
