@@ -1,5 +1,6 @@
 """The exact decomposition of a solid with several convex holes (assetgen.collision.carve):
-no overlap, no gap, nothing inside a hole, and a non-convex part at exactly its clearance."""
+without overlap a tiling (no overlap, no gap), with it a union that is exactly the material
+minus the holes; nothing inside a hole, and a non-convex part at exactly its clearance."""
 
 from __future__ import annotations
 
@@ -86,13 +87,29 @@ def cell_volume(planes: np.ndarray) -> float:
     return float(ConvexHull(v).volume)
 
 
-def material_minus_holes(lo, hi, holes) -> float:
-    """Volume (m^3) of a box minus the union of the holes, by manifold3d."""
+def material_minus_holes_solid(lo, hi, holes) -> m3.Manifold:
+    """A box minus the union of the holes, by manifold3d."""
     hole_solid = m3.Manifold.batch_boolean(
         [to_manifold(solid_mesh(h)) for h in holes], m3.OpType.Add
     )
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    return (m3.Manifold.cube(hi - lo).translate(lo) - hole_solid).volume()
+    return m3.Manifold.cube(hi - lo).translate(lo) - hole_solid
+
+
+def material_minus_holes(lo, hi, holes) -> float:
+    """Volume (m^3) of a box minus the union of the holes, by manifold3d."""
+    return material_minus_holes_solid(lo, hi, holes).volume()
+
+
+def assert_union(cells, pieces, holes, solid: m3.Manifold) -> None:
+    """The overlapping cells and their pieces make up `solid` (the material minus the
+    holes): no cell enters a hole (as in assert_tiles), the pieces' union has the solid's
+    volume, and so does their union with it (nothing outside); and they do overlap."""
+    assert max(depth(np.vstack([c, h])) for c in cells for h in holes) < 1e-8
+    union = m3.Manifold.batch_boolean([to_manifold(p) for p in pieces], m3.OpType.Add)
+    assert union.volume() == pytest.approx(solid.volume(), rel=1e-6)
+    assert (union + solid).volume() == pytest.approx(solid.volume(), rel=1e-6)
+    assert sum(volume(p) for p in pieces) > solid.volume() * (1 + 1e-3)
 
 
 def assert_tiles(cells, holes, expected_volume, pieces) -> None:
@@ -121,13 +138,16 @@ def check_carving(solids: list[np.ndarray], clearance: float = C) -> list[Mesh]:
     decomposition promises; returns the pieces."""
     material = box(MATERIAL_LO, MATERIAL_HI)
     holes = [insertion_hole(s, clearance) for s in solids]
-    cells = carve_cells(material, holes)
+    cells = carve_cells(material, holes, overlap=0.0)
+    tiles = carve(material, holes, overlap=0.0)
+    assert len(tiles) <= len(cells)  # slivers below MIN_PIECE_VOLUME become no piece
     pieces = carve(material, holes)
-    assert len(pieces) <= len(cells)  # slivers below MIN_PIECE_VOLUME become no piece
     # every piece inside the material (convex pieces: their vertices suffice)
-    for p in pieces:
+    for p in tiles + pieces:
         assert np.all(p.vertices @ material[:, :3].T - material[:, 3] <= 1e-9)
-    assert_tiles(cells, holes, material_minus_holes(MATERIAL_LO, MATERIAL_HI, holes), pieces)
+    solid = material_minus_holes_solid(MATERIAL_LO, MATERIAL_HI, holes)
+    assert_tiles(cells, holes, solid.volume(), tiles)
+    assert_union(carve_cells(material, holes), pieces, holes, solid)
     # the part, in its design pose, is at exactly the clearance from the pieces (python-fcl)
     gaps = []
     for s in solids:
@@ -160,10 +180,12 @@ def test_a_cross_hole_through_a_profile() -> None:
         [[0, np.cos(t), np.sin(t), 0.0045] for t in a] + [[1, 0, 0, 0.05]] + [[-1, 0, 0, 0.05]]
     )
     slot = box([-0.003, 0.006, -0.05], [0.003, 0.05, 0.05])
-    cells = carve_cells(profile, [shank, slot])
-    pieces = carve(profile, [shank, slot])
-    expected = material_minus_holes([-0.01, -0.01, -0.03], [0.01, 0.01, 0.03], [shank, slot])
-    assert_tiles(cells, [shank, slot], expected, pieces)
+    cells = carve_cells(profile, [shank, slot], overlap=0.0)
+    tiles = carve(profile, [shank, slot], overlap=0.0)
+    solid = material_minus_holes_solid([-0.01, -0.01, -0.03], [0.01, 0.01, 0.03], [shank, slot])
+    assert_tiles(cells, [shank, slot], solid.volume(), tiles)
+    holes = [shank, slot]
+    assert_union(carve_cells(profile, holes), carve(profile, holes), holes, solid)
 
 
 def test_a_hole_that_misses_the_material_leaves_it_whole() -> None:

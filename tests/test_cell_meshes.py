@@ -8,7 +8,7 @@ import trimesh
 from scipy.spatial import ConvexHull, HalfspaceIntersection
 
 import assetgen.collision.cell_meshes as cm
-from assetgen.checks.closed_mesh import check_closed_meshes
+from assetgen.checks.closed_mesh import check_closed_meshes, convexity_excess
 
 EYE = np.eye(3)
 CUBE = np.column_stack([np.vstack([EYE, -EYE]), np.ones(6)])
@@ -95,4 +95,44 @@ def test_no_qhull_for_the_cells_of_real_modules(monkeypatch):
         pieces = exact_pieces(build_module(sample_params(SamplerConfig(), seed)))
         for m in pieces:
             tm = trimesh.Trimesh(m.vertices, m.faces, process=False)
-            assert tm.is_convex, seed
+            # where an overlapping piece's planes meet in two vertices tens of nanometres
+            # apart, the sliver between them has an ill-determined plane (its corners are
+            # snapped up to 17 nm off their face) and trimesh's fold test fails; the mesh
+            # is still the hull of its vertices to within the snap
+            assert tm.is_convex or convexity_excess(m)[0] < 2.5e-8, seed
+
+
+def test_cell_fit_finds_meshes_outside_or_short_of_their_cells():
+    """A cell's own mesh fits it; moved, it reaches past a plane; missing a corner (the hull
+    of the rest), it has triangles on none of the cell's planes."""
+    octa = np.column_stack([np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T, np.ones(8)])
+    octa[:, :3] /= np.sqrt(3)
+    cube, solid = cm.cell_meshes([CUBE, octa])
+    worst, loose = cm.cell_fit([cube, solid], [CUBE, octa], 1e-7)  # 20 nm snaps
+    assert np.all(np.abs(worst) < 2e-8) and not loose.any()
+    moved = type(cube)(cube.vertices + np.array([0.0, 0.0, 1e-3]), cube.faces)
+    worst, loose = cm.cell_fit([moved], [CUBE], 1e-7)
+    assert worst[0] == pytest.approx(1e-3) and loose[0] == 4  # top and bottom: off their planes
+    rest = cube.vertices[1:]
+    hull = ConvexHull(rest)
+    short = type(cube)(rest, hull.simplices)
+    _, loose = cm.cell_fit([short], [CUBE], 1e-7)
+    assert loose[0] >= 1
+
+
+def test_largest_residuals_are_the_portable_products():
+    from assetgen.core.portable import matmul
+
+    rng = np.random.default_rng(3)
+    meshes = cm.cell_meshes([_random_polytope(rng, 12) for _ in range(5)])
+    planes = _random_polytope(rng, 9)
+    got = cm.largest_residuals(meshes, planes)
+    for m, row in zip(meshes, got, strict=True):
+        want = (matmul(m.vertices, planes[:, :3].T) - planes[:, 3]).max(axis=0)
+        assert np.array_equal(row, want)
+
+
+def test_aligned_cell_meshes_keep_the_dropped_cells_places():
+    flat = np.vstack([CUBE, [[0.0, 0.0, -1.0, -1.0]]])
+    meshes = cm.aligned_cell_meshes([flat, CUBE, flat])
+    assert meshes[0] is None and meshes[2] is None and len(meshes[1].vertices) == 8

@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 from assetgen.checks.module_checks import CheckError
-from assetgen.collision.exact import exact_pieces
-from assetgen.collision.pieces import check_pieces, collision_pieces
+from assetgen.collision.exact import OVERLAP, exact_pieces
+from assetgen.collision.pieces import UNION_TOLERANCE, check_pieces, collision_pieces
 from assetgen.core.stl import parse_stl_mm, read_stl_triangles_mm, stl_bytes
 from assetgen.formats.context import ExportContext
 from assetgen.geometry.solids import build_module, insertion_travel
@@ -18,15 +18,19 @@ from .test_geometry import CORNERS
 
 
 @pytest.mark.parametrize("seed", [0, 3, 11, 13, 21, 52])
-def test_exact_pieces_are_convex_and_add_up_to_the_module(seed):
+def test_exact_pieces_are_convex_and_without_overlap_add_up_to_the_module(seed):
     g = build_module(sample_params(SamplerConfig(), seed))
+    for overlap in (0.0, OVERLAP):
+        total = 0.0
+        for m in exact_pieces(g, overlap=overlap):
+            tm = trimesh.Trimesh(m.vertices, m.faces, process=True)
+            assert tm.is_watertight and tm.is_convex
+            total += tm.volume
+        if overlap == 0.0:  # the cells tile the module
+            assert total == pytest.approx(g.module_volume, rel=1e-6)
+        else:  # they reach past their seams (tests/test_piece_overlap.py)
+            assert total > g.module_volume * 1.01
     pieces = exact_pieces(g)
-    total = 0.0
-    for m in pieces:
-        tm = trimesh.Trimesh(m.vertices, m.faces, process=True)
-        assert tm.is_watertight and tm.is_convex
-        total += tm.volume
-    assert total == pytest.approx(g.module_volume, rel=1e-6)
     # Local pieces: besides the 4 far-plate boxes, each covers well under a quarter of the
     # plate's area, so a broadphase keeps them apart.
     plate = g.params.plate_size**2
@@ -38,7 +42,8 @@ def test_exact_pieces_are_convex_and_add_up_to_the_module(seed):
 def test_corner_pieces_keep_the_clearance(name, tmp_path):
     g = build_module(CORNERS[name])
     rec = collision_pieces(ExportContext(tmp_path, g, {}), insertion_travel(g))
-    assert rec["volume_ratio"] == pytest.approx(1.0, abs=1e-6)
+    assert rec["volume_ratio"] > 1.0  # the pieces overlap at their seams
+    assert rec["overlap_m"] == OVERLAP and rec["outside_module_m"] <= UNION_TOLERANCE
     assert abs(rec["clearance_lower_bound_m"] - g.params.clearance) <= 1e-6
     assert abs(rec["insertion_lower_bound_m"] - g.params.clearance) <= 1e-6
 

@@ -82,10 +82,12 @@ def test_sampled_assemblies(seed) -> None:
     check_geometry(ProfileBoltSampler().sample(seed))
 
 
-def test_the_base_pieces_tile_the_block_and_plate() -> None:
-    """The base's pieces add up to plate + block minus the socket and the bolt's holes
-    (plate and block share only a face, so their pieces do not overlap)."""
+def test_the_base_pieces_make_up_the_block_and_plate() -> None:
+    """Without overlap, the base's pieces add up to plate + block minus the socket and the
+    bolt's holes (plate and block share only a face); with it, their union is that solid
+    and their volumes add up to more."""
     asm = build_profile_bolt(replace(ProfileBoltSampler().sample(1), slots=True))
+    tiles = carve_part(asm.base.solids, asm.base.holes, overlap=0.0)
     pieces = carve_part(asm.base.solids, asm.base.holes)
 
     def solid(planes) -> m3.Manifold:
@@ -103,7 +105,18 @@ def test_the_base_pieces_tile_the_block_and_plate() -> None:
     holes = m3.Manifold.batch_boolean(
         [solid(np.vstack([h, big])) for h in asm.base.holes], m3.OpType.Add
     )
-    assert sum(volume(m) for m in pieces) == pytest.approx((body - holes).volume(), rel=1e-6)
+    base = body - holes
+    assert sum(volume(m) for m in tiles) == pytest.approx(base.volume(), rel=1e-6)
+    union = m3.Manifold.batch_boolean(
+        [
+            m3.Manifold(m3.Mesh(vert_properties=m.vertices, tri_verts=m.faces.astype(np.uint32)))
+            for m in pieces
+        ],
+        m3.OpType.Add,
+    )
+    assert union.volume() == pytest.approx(base.volume(), rel=1e-6)
+    assert (union + base).volume() == pytest.approx(base.volume(), rel=1e-6)
+    assert sum(volume(m) for m in pieces) > base.volume() * 1.01
 
 
 @pytest.mark.parametrize(

@@ -14,9 +14,16 @@ positive, so the complement of H is the union of the "farthest-plane" cells
 
 which are convex and do not overlap (they share only boundaries). Cutting one hole after
 another, each cell that the hole's interior meets is replaced by its intersections with the
-hole's F_j; a cell the hole misses is kept whole. The cells never overlap, so their volumes
-add up to the solid's exactly (the module's checks test that), and each lies outside every
-hole, so none comes nearer the part than the clearance.
+hole's F_j; a cell the hole misses is kept whole. Each cell lies outside every hole, so none
+comes nearer the part than the clearance.
+
+As the module's pieces do (assetgen.collision.exact), the cells reach `overlap` past their
+seams: each rival row s_i <= s_j, scaled to a unit normal, moves that far into F_i, so a
+part pressed into a seam meets a piece on both sides of it rather than the shared face of
+two pieces that only touch. Each F_j still lies beyond plane j, so the cells stay outside
+the holes; the solid's own planes do not move, so they stay inside it; and each contains
+the cell it grew from, so they still cover the solid minus the holes. With overlap 0 they
+tile it, and their volumes add up to its volume (tested).
 
 Each F_j is contained in the half-space beyond plane j: these cells refine "one outward
 plane per hole, clipped to the solid" into cells that do not overlap. A cell's vertices come
@@ -33,6 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from assetgen.collision.cell_meshes import cell_meshes
+from assetgen.collision.exact import OVERLAP
 from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh
 
@@ -71,12 +79,13 @@ def _distinct(planes: np.ndarray) -> np.ndarray:
     return planes[keep]
 
 
-def farthest_cells(hole: np.ndarray) -> list[np.ndarray]:
+def farthest_cells(hole: np.ndarray, overlap: float = 0.0) -> list[np.ndarray]:
     """The cells F_j (half-space rows, unit normals) that tile the complement of the convex
     polytope `hole` (unit-normal rows n . x <= d): F_j is beyond plane j and plane j is the
-    farthest there. Rival rows s_i <= s_j are normalised. A parallel plane's rival row is a
-    constant: always true (plane j is the tighter one: dropped), or never (plane j is
-    redundant and F_j is empty: no cell)."""
+    farthest there, each seam with F_i moved `overlap` (m) into F_i (0: a tiling). Rival
+    rows s_i <= s_j are normalised. A parallel plane's rival row is a constant: always true
+    (plane j is the tighter one: dropped), or never (plane j is redundant and F_j is empty:
+    no cell)."""
     hole = _distinct(hole)
     cells = []
     for j, (nj, dj) in enumerate(zip(hole[:, :3], hole[:, 3], strict=True)):
@@ -86,7 +95,7 @@ def farthest_cells(hole: np.ndarray) -> list[np.ndarray]:
             size = float(np.linalg.norm(dn))
             if i == j or size >= PARALLEL:
                 if i != j:
-                    rows.append(np.array([*dn, di - dj]) / size)
+                    rows.append(np.array([*(dn / size), (di - dj) / size + overlap]))
             elif di < dj:  # a parallel plane i is tighter: s_i > s_j everywhere, F_j is empty
                 break
         else:
@@ -108,9 +117,12 @@ def _pruned(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
     return planes[on.sum(axis=0) >= 3]
 
 
-def carve_cells(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[np.ndarray]:
+def carve_cells(
+    material: np.ndarray, holes: Sequence[np.ndarray], overlap: float = OVERLAP
+) -> list[np.ndarray]:
     """Convex cells (each a (m, 4) system of unit-normal half-spaces) whose union is the
-    bounded convex `material` minus the interiors of the convex `holes`, without overlaps.
+    bounded convex `material` minus the interiors of the convex `holes`, overlapping by
+    `overlap` (m) at their seams (0: without overlaps).
 
     material : (m, 4) rows [n, d] meaning n . x <= d (bounded).
     holes    : (h_k, 4) rows each, the same form (they may extend beyond the material).
@@ -124,7 +136,7 @@ def carve_cells(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[np.nd
     cells = [_pruned(material, v)]
     for hole in holes:
         meets = polytope_vertices_batch([np.vstack([c, hole]) for c in cells])
-        tiles = farthest_cells(hole)
+        tiles = farthest_cells(hole, overlap)
         candidates: list[np.ndarray] = []
         for cell, inside in zip(cells, meets, strict=True):
             if not _solid(inside):
@@ -139,16 +151,21 @@ def carve_cells(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[np.nd
     return cells
 
 
-def carve(material: np.ndarray, holes: Sequence[np.ndarray]) -> list[Mesh]:
+def carve(
+    material: np.ndarray, holes: Sequence[np.ndarray], overlap: float = OVERLAP
+) -> list[Mesh]:
     """The convex pieces (outward meshes, m) of `material` minus `holes` (see carve_cells);
     slivers below assetgen.collision.cell_meshes.MIN_PIECE_VOLUME are dropped."""
-    cells = carve_cells(material, holes)
+    cells = carve_cells(material, holes, overlap)
     return cell_meshes(cells)
 
 
-def carve_part(solids: Sequence[np.ndarray], holes: Sequence[np.ndarray]) -> list[Mesh]:
+def carve_part(
+    solids: Sequence[np.ndarray], holes: Sequence[np.ndarray], overlap: float = OVERLAP
+) -> list[Mesh]:
     """The convex pieces of a part made of convex `solids` with convex `holes` cut from it
-    (same frame): each solid carved by every hole. Pieces of different solids may overlap
-    where the solids do (a simulator's collision geoms may; the files' volume check is
-    then done on the part's mesh, not on a sum of pieces)."""
-    return [m for s in solids for m in carve(s, holes)]
+    (same frame): each solid carved by every hole, its pieces overlapping by `overlap` (m)
+    at their seams. Pieces of different solids overlap where the solids do (a simulator's
+    collision geoms may; the files' volume check is then done on the part's mesh, not on a
+    sum of pieces), and only touch where the solids only touch."""
+    return [m for s in solids for m in carve(s, holes, overlap)]

@@ -19,7 +19,9 @@ neighbouring hole faces' cells meet), so:
   no face;
 - the vertices are snapped to a grid (SNAP), which moves a face's vertices off its plane by
   nanometres, so a face's triangles are flipped until every fold between them is convex
-  for the snapped points: the mesh is then the hull of its vertices, as qhull's was;
+  for the snapped points: the mesh is then the hull of its vertices, as qhull's was (to
+  within the snap where two vertices lie tens of nanometres apart, as planes that meet by
+  chance can give: the sliver between them folds by ~10 nm);
 - every cell's triangles must close (each directed edge once, its reverse once, every
   vertex used). A cell that does not, which takes near-coincident planes (none of the
   90,054 cells of Table I seeds 0-3071, nor of the 38,821 of profile-bolt assemblies 0-149),
@@ -30,6 +32,8 @@ arrays are those qhull gave, and only the triangles differ.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -272,7 +276,60 @@ def _convex_folds(vpos, vs, tris, first, end):  # pragma: no cover - compiled
             return
 
 
+def _fit(
+    vertices, vbounds, faces, fbounds, planes, starts, sizes, tol, worst, loose
+):  # pragma: no cover
+    """How each mesh fits its cell (compiled; see cell_fit): worst[s] its vertices' largest
+    residual over the cell's planes, loose[s] how many of its triangles have no plane that
+    all three corners lie on (within tol)."""
+    words = (sizes.max() + 63) // 64
+    most = 0
+    for s in range(len(sizes)):
+        most = max(most, vbounds[s + 1] - vbounds[s])
+    on = np.zeros((most, words), np.uint64)
+    for s in range(len(sizes)):
+        top = -np.inf
+        for a in range(vbounds[s + 1] - vbounds[s]):
+            x = vertices[vbounds[s] + a, 0]
+            y = vertices[vbounds[s] + a, 1]
+            z = vertices[vbounds[s] + a, 2]
+            for w in range(words):
+                on[a, w] = 0
+            for q in range(sizes[s]):
+                p = planes[starts[s] + q]
+                r = x * p[0] + y * p[1] + z * p[2] - p[3]
+                top = max(top, r)
+                if abs(r) <= tol:
+                    on[a, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+        worst[s] = top
+        bad = 0
+        for f in range(fbounds[s], fbounds[s + 1]):
+            a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+            common = False
+            for w in range(words):
+                if on[a, w] & on[b, w] & on[c, w]:
+                    common = True
+            if not common:
+                bad += 1
+        loose[s] = bad
+
+
+def _largest(vertices, vbounds, planes, out):  # pragma: no cover - compiled
+    """out[s, q]: the largest n_q . x - d_q over mesh s's vertices (compiled; see
+    largest_residuals). Summed left to right, as assetgen.core.portable.matmul does."""
+    for s in range(len(vbounds) - 1):
+        for q in range(len(planes)):
+            top = -np.inf
+            for a in range(vbounds[s], vbounds[s + 1]):
+                r = vertices[a, 0] * planes[q, 0]
+                r = r + vertices[a, 1] * planes[q, 1]
+                r = r + vertices[a, 2] * planes[q, 2]
+                top = max(top, r - planes[q, 3])
+            out[s, q] = top
+
+
 _KERNELS = None
+_CHECKS = None
 
 
 def _kernels():
@@ -293,13 +350,64 @@ def warm_up() -> None:
     """Load (or compile, on a fresh checkout: a few seconds, then cached) every kernel of
     this module and of the vertex enumeration, e.g. in a parent process before it forks."""
     eye = np.eye(3)
-    cell_meshes([np.column_stack([np.vstack([eye, -eye]), np.ones(6)])])
+    cube = np.column_stack([np.vstack([eye, -eye]), np.ones(6)])
+    meshes = cell_meshes([cube])
+    cell_fit(meshes, [cube], 0.0)
+    largest_residuals(meshes, cube)
+
+
+def _checks():
+    """The two check loops compiled (numba, cached on disk), on first use."""
+    global _CHECKS
+    if _CHECKS is None:
+        from numba import njit
+
+        _CHECKS = (njit(cache=True)(_fit), njit(cache=True)(_largest))
+    return _CHECKS
+
+
+def _stacked(meshes: Sequence[Mesh]) -> tuple[np.ndarray, np.ndarray]:
+    """All meshes' vertices in one array, and where each mesh's start (meshes + 1,)."""
+    bounds = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    return np.ascontiguousarray(np.vstack([m.vertices for m in meshes]), np.float64), bounds
+
+
+def cell_fit(
+    meshes: Sequence[Mesh], systems: Sequence[np.ndarray], tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """How each closed convex mesh fits its cell {n . x <= d} ((m, 4) rows, unit normals):
+    its vertices' largest residual n . x - d over the cell's planes (m; <= tol: the mesh is
+    inside the cell), and how many of its triangles lie on none of the cell's planes (all
+    three corners within `tol` of it). A closed convex surface inside the cell and all on
+    its planes is the cell's surface: with no such triangle, the mesh is the whole cell."""
+    planes, starts, sizes = Stacked.of(list(systems))
+    vertices, vbounds = _stacked(meshes)
+    fbounds = np.cumsum([0] + [len(m.faces) for m in meshes])
+    faces = np.ascontiguousarray(np.vstack([m.faces for m in meshes]), np.int64)
+    worst = np.empty(len(meshes))
+    loose = np.empty(len(meshes), np.int64)
+    _checks()[0](vertices, vbounds, faces, fbounds, planes, starts, sizes, tol, worst, loose)
+    return worst, loose
+
+
+def largest_residuals(meshes: Sequence[Mesh], planes: np.ndarray) -> np.ndarray:
+    """(meshes, planes): the largest n . x - d over each mesh's vertices, for each of the
+    (m, 4) `planes` (the same bits on every machine)."""
+    vertices, bounds = _stacked(meshes)
+    out = np.empty((len(meshes), len(planes)))
+    _checks()[1](vertices, bounds, np.ascontiguousarray(planes, np.float64), out)
+    return out
 
 
 def cell_meshes(systems: list[np.ndarray]) -> list[Mesh]:
     """Each bounded cell {n . x <= d} ((m, 4) rows, unit normals) as a closed convex mesh,
     outward-oriented, in input order; cells with no volume (empty, flat, or a sliver below
     MIN_PIECE_VOLUME) are dropped."""
+    return [m for m in aligned_cell_meshes(systems) if m is not None]
+
+
+def aligned_cell_meshes(systems: list[np.ndarray]) -> list[Mesh | None]:
+    """cell_meshes, with None in place of each dropped cell: item s is system s's mesh."""
     if not systems:
         return []
     cluster, faces = _kernels()
@@ -325,11 +433,12 @@ def cell_meshes(systems: list[np.ndarray]) -> list[Mesh]:
         meshes[s] = Mesh(*_sorted(cell, tris[tbounds[s] : tbounds[s + 1]]))
     for s in np.flatnonzero(state == 3):
         meshes[s] = _qhull_mesh(_sorted(vpos[cbounds[s] : cbounds[s + 1]], None)[0])
-    kept = [m for m in meshes if m is not None]
-    if not kept:
-        return []
-    volume = _volumes(kept)
-    return [m for m, v in zip(kept, volume, strict=True) if v >= MIN_PIECE_VOLUME]
+    kept = [s for s, m in enumerate(meshes) if m is not None]
+    if kept:
+        volume = _volumes([meshes[s] for s in kept])
+        for s in np.asarray(kept)[volume < MIN_PIECE_VOLUME]:
+            meshes[s] = None
+    return meshes
 
 
 def _sorted(vertices: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:

@@ -4,27 +4,47 @@ decomposes exactly; CoACD approximates and eats into a 1 mm clearance).
 The hole is H = {x : s_i(x) <= 0 for every hole plane i}, s_i(x) = n_i . x - d_i. Outside H
 the largest s_i is positive, so the material splits exactly into the convex cells
 
-    piece_i = material ∩ {s_i >= 0} ∩ {s_i >= s_j for the planes j next to i},
+    cell_i = material ∩ {s_i >= 0} ∩ {s_i >= s_j for the planes j next to i},
 
 "material beyond face plane i where plane i is the farthest". Each cell lies beyond one hole
-plane, so no piece comes nearer the seated peg than the clearance, and the cells do not
-overlap, so their volumes add up to the module's (checked). The material is the plate near
-the hole (a local box; the far plate is four plain boxes, so a broadphase prunes them) and
-the sleeve below it. Cells' vertices come from enumerating plane triples in one compiled
-loop over all of a module's cells (assetgen.collision.triple_vertices: 6 - 71 planes a cell, ~0.7 ms
-a module in all), and their faces from the planes each vertex lies on
-(assetgen.collision.cell_meshes).
+plane, so no piece comes nearer the seated peg than the clearance. The material is the plate
+near the hole (a local box; the far plate is four plain boxes, so a broadphase prunes them)
+and the sleeve below it.
+
+The cells tile the module and only touch; the pieces overlap instead (OVERLAP, why there).
+Each internal face moves OVERLAP into the neighbouring cell: the seams between cells (the
+rows s_j <= s_i, scaled to unit normals, so each seam moves that distance whatever the angle
+between the faces), the local box's sides inside the plate (into the far boxes; those along
+y reach into those along x), and the sleeve's top at the plate's underside (into the plate;
+at most half the plate's thickness, where the sleeve itself ends). What bounds the module
+never moves: the plate's and the sleeve's outer planes, and each piece's own hole plane.
+So each piece still lies in the material and beyond its hole plane, inside the module, and
+contains the cell it grew from: their union is the module, with no seam left open. A sleeve
+piece that reaches past its neighbours' cells may cross another face's mitred outer plane:
+it gets that plane too (checked on its vertices).
+
+Cells' vertices come from enumerating plane triples in one compiled loop over all of a
+module's cells (assetgen.collision.triple_vertices: 6 - 71 planes a cell, ~0.9 ms a module in
+all), and their faces from the planes each vertex lies on (assetgen.collision.cell_meshes).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from assetgen.collision.cell_meshes import cell_meshes
+from assetgen.collision.cell_meshes import aligned_cell_meshes, largest_residuals
 from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh
+from assetgen.core.portable import norm
 from assetgen.geometry.polytope import offset_planes, transform_planes
 from assetgen.geometry.solids import ModuleGeometry
+
+OVERLAP = 0.002
+"""How far (m) each piece reaches past a seam it shares with another piece, into that
+piece. MuJoCo collides each convex piece on its own: where two pieces only touched, a peg
+pressed into the seam could slip between them (each piece pushes it out through the shared
+face, the shortest way out of that piece). Faces of the module itself (the plate's outside,
+the sleeve's, the hole's) never move."""
 
 
 def _incidence(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -49,13 +69,24 @@ def face_neighbours(
     return [np.flatnonzero(row) for row in adjacent]
 
 
-def _cell_planes(hole_planes: np.ndarray, i: int, nbrs: np.ndarray) -> np.ndarray:
-    """Half-spaces of 'beyond plane i, and plane i the farthest among its neighbours'."""
-    ni, di = hole_planes[i, :3], hole_planes[i, 3]
-    beyond = np.array([[*(-ni), -di]])
-    # s_j <= s_i  <=>  (n_j - n_i) . x <= d_j - d_i
-    rivals = np.column_stack([hole_planes[nbrs, :3] - ni, hole_planes[nbrs, 3] - di])
-    return np.vstack([beyond, rivals])
+def _cell_planes(
+    hole_planes: np.ndarray, nbrs: list[np.ndarray], overlap: float
+) -> list[np.ndarray]:
+    """For each hole plane i, the half-spaces of 'beyond plane i, and plane i the farthest
+    among its neighbours', each seam with a neighbour moved `overlap` (m) into the
+    neighbour's cell."""
+    k = len(hole_planes)
+    own = np.repeat(np.arange(k), [len(n) for n in nbrs])
+    other = np.concatenate(nbrs)
+    # s_j <= s_i  <=>  (n_j - n_i) . x <= d_j - d_i, scaled to a unit normal so that the
+    # overlap moves the seam by that distance whatever the angle between the faces
+    dn = hole_planes[other, :3] - hole_planes[own, :3]
+    size = norm(dn)
+    dd = (hole_planes[other, 3] - hole_planes[own, 3]) / size + overlap
+    rivals = np.split(
+        np.column_stack([dn / size[:, None], dd]), np.cumsum([len(n) for n in nbrs])[:-1]
+    )
+    return [np.vstack([-hole_planes[i : i + 1], rivals[i]]) for i in range(k)]
 
 
 def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -66,17 +97,19 @@ def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 def local_footprint(geom: ModuleGeometry) -> tuple[np.ndarray, np.ndarray]:
     """xy bounds (lo, hi) of the plate region around the hole, each (2,) in m."""
     p = geom.params
-    t = p.plate_thickness
-    slab = np.vstack([geom.hole_planes, [[0.0, 0.0, 1.0, 0.0]], [[0.0, 0.0, -1.0, t]]])
-    (v,) = polytope_vertices_batch([slab])
+    lo, hi = geom.hole_section
     half = p.plate_size / 2
-    lo = np.maximum(v[:, :2].min(axis=0) - p.sleeve_wall, -half)
-    hi = np.minimum(v[:, :2].max(axis=0) + p.sleeve_wall, half)
-    return lo, hi
+    return np.maximum(lo - p.sleeve_wall, -half), np.minimum(hi + p.sleeve_wall, half)
 
 
-def exact_pieces(geom: ModuleGeometry) -> list[Mesh]:
-    """Convex pieces (module frame, m) whose union is exactly the module."""
+def exact_decomposition(
+    geom: ModuleGeometry, overlap: float = OVERLAP
+) -> tuple[list[Mesh], list[np.ndarray]]:
+    """Convex pieces (module frame, m) whose union is exactly the module, each reaching
+    `overlap` (m) past its internal seams (0: cells that only touch), and each piece's
+    half-spaces {n . x <= d} (unit normals), of which it is the intersection."""
+    if not 0.0 <= overlap:
+        raise ValueError(f"overlap = {overlap!r} m; expected >= 0")
     p = geom.params
     t = p.plate_thickness
     half = p.plate_size / 2
@@ -93,25 +126,65 @@ def exact_pieces(geom: ModuleGeometry) -> list[Mesh]:
 
     systems: list[np.ndarray] = []
     lo, hi = local_footprint(geom)
-    # Far plate: four boxes around the local box.
+    # Far plate: four boxes around the local box, the two along y reaching `overlap` into
+    # the two along x (away from the hole, so they stay whole boxes of plate).
+    wide_lo = max(lo[0] - overlap, -half)
+    wide_hi = min(hi[0] + overlap, half)
     for blo, bhi in (
         ((-half, -half), (lo[0], half)),
         ((hi[0], -half), (half, half)),
-        ((lo[0], -half), (hi[0], lo[1])),
-        ((lo[0], hi[1]), (hi[0], half)),
+        ((wide_lo, -half), (wide_hi, lo[1])),
+        ((wide_lo, hi[1]), (wide_hi, half)),
     ):
         if bhi[0] - blo[0] > 1e-9 and bhi[1] - blo[1] > 1e-9:
             systems.append(_box_planes(np.array([*blo, -t]), np.array([*bhi, 0.0])))
-    local_box = _box_planes(np.array([*lo, -t]), np.array([*hi, 0.0]))
-    # Sleeve rows: k mitred hole planes, 4 box planes, the mid-plate cap. Below the plate the
-    # sleeve is alone (inside it the local box covers everything), so cap at the underside.
+    # The local box reaches `overlap` into the far boxes (its sides inside the plate).
+    local_box = _box_planes(
+        np.array([*np.maximum(lo - overlap, -half), -t]),
+        np.array([*np.minimum(hi + overlap, half), 0.0]),
+    )
+    # Sleeve rows: mitred hole planes, 4 box planes, a cap. Below the plate the sleeve is
+    # alone (inside it the local box covers everything), so cap at the underside, raised
+    # `overlap` into the plate; not above mid-plate, where the sleeve itself ends.
     mitred = geom.sleeve_planes[:k]
-    box_and_floor = np.vstack([geom.sleeve_planes[k : k + 4], [[0.0, 0.0, 1.0, -t]]])
+    rise = min(overlap, t / 2)
+    box_and_cap = np.vstack([geom.sleeve_planes[k : k + 4], [[0.0, 0.0, 1.0, -t + rise]]])
+    cells = _cell_planes(hp, nbrs, overlap)
+    # Without overlap, inside cell i every s_j <= s_i, so of the mitred planes only i's own,
+    # its neighbours' and the floor's (thickness may differ from the wall's) can bind; a
+    # cell reaching past its seams may cross others' (added below).
+    has = np.zeros((k, k), bool)
+    has[np.arange(k), np.arange(k)] = True
+    has[:, k - 1] = True
+    has[np.repeat(np.arange(k), [len(n) for n in nbrs]), np.concatenate(nbrs)] = True
+    first = len(systems)
     for i in range(k):
-        cell = _cell_planes(hp, i, nbrs[i])
-        systems.append(np.vstack([local_box, cell]))
-        # Inside cell i every s_j <= s_i, so of the mitred planes only i's own, its
-        # neighbours' and the floor's (thickness may differ from the wall's) can bind.
-        rows = np.unique(np.concatenate([[i, k - 1], nbrs[i]]))
-        systems.append(np.vstack([mitred[rows], box_and_floor, cell]))
-    return cell_meshes(systems)
+        systems.append(np.vstack([local_box, cells[i]]))
+        systems.append(np.vstack([mitred[has[i]], box_and_cap, cells[i]]))
+    meshes = aligned_cell_meshes(systems)
+
+    # Every sleeve piece inside every mitred plane: a piece whose vertices all satisfy one
+    # lies inside it (convex); one that crosses planes it lacks gets them and is made again
+    # (it only shrinks, so the planes it satisfied stay satisfied).
+    todo = [i for i in range(k) if meshes[first + 2 * i + 1] is not None]
+    while todo:
+        reach = largest_residuals([meshes[first + 2 * i + 1] for i in todo], mitred)
+        more = (reach > 0.0) & ~has[todo]
+        redo = [i for i, row in zip(todo, more.any(axis=1), strict=True) if row]
+        if not redo:
+            break
+        has[todo] |= more
+        for i in redo:
+            systems[first + 2 * i + 1] = np.vstack([mitred[has[i]], box_and_cap, cells[i]])
+        again = aligned_cell_meshes([systems[first + 2 * i + 1] for i in redo])
+        for i, m in zip(redo, again, strict=True):
+            meshes[first + 2 * i + 1] = m
+        todo = [i for i in redo if meshes[first + 2 * i + 1] is not None]
+    kept = [s for s, m in enumerate(meshes) if m is not None]
+    return [meshes[s] for s in kept], [systems[s] for s in kept]  # type: ignore[misc]
+
+
+def exact_pieces(geom: ModuleGeometry, overlap: float = OVERLAP) -> list[Mesh]:
+    """Convex pieces (module frame, m) whose union is exactly the module, overlapping by
+    `overlap` (m) at their internal seams (see exact_decomposition)."""
+    return exact_decomposition(geom, overlap)[0]

@@ -5,6 +5,8 @@ rounded as the MJCF and USD files store them (float32 millimetres, assetgen.core
 and their distance to the seated and the inserting peg is bounded
 from below by separating planes (a proof; python-fcl measures any piece the planes cannot
 clear): a module whose collision geometry comes nearer the peg than the clearance is refused.
+The exact pieces, which overlap at their seams, are also checked to make up the module:
+each inside it, and each the whole cell it was made from (check_union).
 """
 
 from __future__ import annotations
@@ -21,8 +23,9 @@ from assetgen.checks.module_checks import (
     _swept_hull,
     lifted,
 )
+from assetgen.collision.cell_meshes import cell_fit, largest_residuals
 from assetgen.collision.coacd_pieces import coacd_pieces
-from assetgen.collision.exact import exact_pieces
+from assetgen.collision.exact import OVERLAP, exact_decomposition, exact_pieces
 from assetgen.collision.separating_planes import (
     edge_cross_directions,
     mesh_edge_directions,
@@ -107,6 +110,75 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
     }
 
 
+UNION_TOLERANCE = 1e-7
+"""How far (m) a stored exact piece's vertex may lie outside the module, or off the plane
+of the face it is on: the 20 nm snap of the vertices (up to 17 nm along a normal) and the
+files' float32 millimetres (up to 13 nm on a 0.5 m plate), with room."""
+
+
+def check_union(
+    pieces: Sequence[Mesh], systems: Sequence[np.ndarray], geom: ModuleGeometry
+) -> dict:
+    """Check that the exact pieces (as stored) make up the module: their union is the
+    module, seams overlapping; raise CheckError if not.
+
+    - Inside the module: each piece's vertices (so the piece, convex) lie in the plate or in
+      the sleeve, and beyond one hole plane, or, a far-plate box, to one side of the hole's
+      section through the plate.
+    - Each piece is the whole polytope of its half-spaces: every vertex satisfies them all
+      and every triangle lies on one of their planes (a closed convex surface inside a
+      polytope, all on its boundary, is the polytope's surface: no vertex missing).
+    The polytopes cover the module by construction (see assetgen.collision.exact: each one
+    contains the cell of the exact tiling it grew from). Within UNION_TOLERANCE.
+    Returns how far the pieces reach outside the module (m; <= 0 within it).
+    """
+    p = geom.params
+    t, half = p.plate_thickness, p.plate_size / 2
+    k = len(geom.hole_planes)
+    lo, hi = geom.hole_section
+    eye = np.eye(3)
+    rows = np.vstack(
+        [
+            np.column_stack([np.vstack([eye, -eye]), [half, half, 0.0, half, half, t]]),  # plate
+            geom.sleeve_planes,
+            -geom.hole_planes,  # beyond hole plane i
+            np.column_stack([-eye[:2], -hi]),  # the hole's section's +x, +y side
+            np.column_stack([eye[:2], lo]),  # its -x, -y side
+        ]
+    )
+    worst = largest_residuals(pieces, rows)
+    plate = worst[:, :6].max(axis=1)
+    sleeve = worst[:, 6 : 6 + len(geom.sleeve_planes)].max(axis=1)
+    beyond = worst[:, -k - 4 : -4].min(axis=1)
+    side = worst[:, -4:].min(axis=1)  # only where the piece is in the plate
+    outside = np.maximum(
+        np.minimum(plate, sleeve),
+        np.where(plate <= UNION_TOLERANCE, np.minimum(beyond, side), beyond),
+    )
+    if outside.max() > UNION_TOLERANCE:
+        s = int(outside.argmax())
+        raise CheckError(
+            f"collision piece {s} reaches {outside[s] * 1e3:.6f} mm outside the module (into "
+            f"the hole or past the plate's or the sleeve's faces; tolerance "
+            f"{UNION_TOLERANCE * 1e3:g} mm)"
+        )
+
+    worst, loose = cell_fit(pieces, systems, UNION_TOLERANCE)
+    if worst.max() > UNION_TOLERANCE:
+        s = int(worst.argmax())
+        raise CheckError(
+            f"collision piece {s} reaches {worst[s] * 1e3:.6f} mm past one of its own planes: "
+            "its mesh is not its cell"
+        )
+    if loose.any():
+        s = int(np.flatnonzero(loose)[0])
+        raise CheckError(
+            f"collision piece {s} has {loose[s]} triangle(s) on none of its cell's planes: "
+            "its mesh misses part of its cell (a gap in the collision geometry)"
+        )
+    return {"outside_module_m": float(outside.max())}
+
+
 def collision_pieces(ctx: ExportContext, travel: float, method: str = "exact") -> dict:
     """Decompose the module, round the pieces as the files store them and check those; set
     ctx.pieces to them (the MJCF and USD writers store them, and the MJCF writer checks that
@@ -114,24 +186,24 @@ def collision_pieces(ctx: ExportContext, travel: float, method: str = "exact") -
     if method not in DECOMPOSERS:
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
     geom = ctx.geometry
+    systems = None
     with step(ctx.times, "collision: decompose"):
-        pieces = DECOMPOSERS[method](geom)
+        if method == "exact":
+            pieces, systems = exact_decomposition(geom)
+        else:
+            pieces = DECOMPOSERS[method](geom)
     with step(ctx.times, "collision: re-check"):
         ctx.pieces = stored(pieces)
         gaps = check_pieces(ctx.pieces, geom.peg, geom, travel)
-    volume = _volume(pieces)
     record = {
         "method": method,
         "pieces": len(pieces),
-        "volume_ratio": volume / geom.module_volume,
-        **gaps,
+        "volume_ratio": _volume(pieces) / geom.module_volume,
     }
-    if method == "exact" and abs(record["volume_ratio"] - 1.0) > 1e-6:
-        raise CheckError(
-            f"exact convex pieces add up to {record['volume_ratio']:.8f} of the module's volume "
-            "(expected 1): pieces overlap or leave gaps"
-        )
-    return record
+    if systems is not None:
+        with step(ctx.times, "collision: union"):
+            record |= {"overlap_m": OVERLAP, **check_union(ctx.pieces, systems, geom)}
+    return {**record, **gaps}
 
 
 def _volume(pieces: Sequence[Mesh]) -> float:

@@ -52,6 +52,7 @@ class ModuleGeometry:
     module         : plate with sleeve and hole, in the module frame.
     hole_planes    : (k, 4) rows [n, d], module frame: the hole is {x : n . x <= d} (uncapped).
     sleeve_planes  : (k, 4) the sleeve as half-spaces (see sleeve_half_spaces), module frame.
+    hole_section   : (2, 2) rows lo, hi: the xy bounds of the hole between the plate's faces.
     entrance       : where the hole axis meets the mounting surface, z = surface normal.
     bottom         : centre of the hole floor, z along the hole axis; a seated peg's frame.
     design_pose    : the bottom frame moved up the axis by the clearance: every gap = clearance.
@@ -62,6 +63,7 @@ class ModuleGeometry:
     module: Mesh
     hole_planes: np.ndarray
     sleeve_planes: np.ndarray
+    hole_section: np.ndarray
     entrance: Frame
     bottom: Frame
     design_pose: Frame
@@ -211,7 +213,8 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         raise GeometryError(
             "the hole does not reach the mounting surface; increase hole_depth_fraction"
         )
-    extent = np.abs(polytope_vertices(slab)[:, :2]).max() + p.sleeve_wall
+    section = polytope_vertices(slab)[:, :2]
+    extent = np.abs(section).max() + p.sleeve_wall
     if extent > half:
         raise GeometryError(
             f"the hole with its {p.sleeve_wall * 1e3:g} mm wall reaches {extent * 1e3:.2f} mm "
@@ -249,6 +252,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         module=_to_mesh(module),
         hole_planes=hole_planes,
         sleeve_planes=sleeve_planes,
+        hole_section=np.array([section.min(axis=0), section.max(axis=0)]),
         entrance=entrance,
         bottom=bottom,
         design_pose=design,
