@@ -269,6 +269,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return bench_main(args)
         except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
+    if args.what == "contacts":
+        from assetgen.dataset.spec import DatasetError
+        from sim.assets import AssetError
+        from sim.contact_stress import main as contacts_main
+
+        if not args.target:
+            return _err("bench contacts needs a dataset: assetgen bench contacts DATASET")
+        args.dataset = args.target
+        try:
+            return contacts_main(args)
+        except (DatasetError, AssetError, ValueError) as e:
+            return _err(str(e))
     if args.what == "load":
         from assetgen.dataset.spec import DatasetError, resolve
         from sim.assets import AssetError
@@ -286,7 +298,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         except ValueError as e:
             return _err(str(e))
     else:
-        return _err(f"unknown benchmark {args.what!r}; valid: assets, sim, load")
+        return _err(f"unknown benchmark {args.what!r}; valid: assets, sim, load, contacts")
     table = Table(title=f"bench {args.what}", show_header=False)
     for k, v in result.items():
         if not isinstance(v, dict):
@@ -369,7 +381,10 @@ def build_parser() -> argparse.ArgumentParser:
     i.set_defaults(func=cmd_info)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
-    b.add_argument("what", choices=["assets", "sim", "load"], help="what to measure")
+    b.add_argument("what", choices=["assets", "sim", "load", "contacts"], help="what to measure")
+    b.add_argument(
+        "target", nargs="?", help="contacts: the dataset (spec name or folder) to stress"
+    )
     b.add_argument("--n", type=int, default=256, help="modules (assets, load)")
     b.add_argument("--envs", type=int, default=1024, help="environments (sim)")
     b.add_argument("--steps", type=int, default=200, help="control steps (sim)")
@@ -383,7 +398,28 @@ def build_parser() -> argparse.ArgumentParser:
         "installed) or numpy, to compare",
     )
     b.add_argument("--workers", type=int, default=None)
-    b.add_argument("--json", action="store_true", help="print the figures as JSON last")
+    b.add_argument(
+        "--json",
+        nargs="?",
+        const=True,
+        default=False,
+        help="print the figures as JSON last (contacts: write every run's figures to this file)",
+    )
+    b.add_argument("--limit", type=int, default=None, help="contacts: the first N modules only")
+    b.add_argument(
+        "--set",
+        action="append",
+        metavar="FIELD=VALUE",
+        help="contacts: replace a PhysicsConfig field (repeatable), e.g. --set timestep=0.001",
+    )
+    b.add_argument(
+        "--source",
+        choices=["sim", "mjcf"],
+        default="sim",
+        help="contacts: the simulator's models of the modules (default) or their exported "
+        "peg_in_hole.xml files with the physics they carry",
+    )
+    b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
     b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
     b.set_defaults(func=cmd_bench)
 
@@ -423,6 +459,12 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     e.add_argument("--out", type=Path, help="write the results JSON here")
     e.add_argument("--json", action="store_true", help="print the results as one JSON line")
+    e.add_argument(
+        "--keep-dataset-physics",
+        action="store_true",
+        help="simulate a dataset written for other physics with the physics its files carry "
+        "(default: refuse it and say how to regenerate it)",
+    )
     e.set_defaults(func=cmd_eval)
 
     from preview.command import add_arguments, view_main
@@ -449,10 +491,10 @@ def _train_env(*args, **kwargs):
     return make_train_env(*args, **kwargs)
 
 
-def _probe_env(dataset: str, modules: int):
+def _probe_env(dataset: str, modules: int, keep_physics: bool = False):
     from sim import make_eval_env
 
-    return make_eval_env(dataset, None, 0, modules=modules)
+    return make_eval_env(dataset, None, 0, modules=modules, keep_physics=keep_physics)
 
 
 def _expert(name: str):

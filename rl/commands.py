@@ -34,7 +34,8 @@ import numpy as np
 from rl.vec_env import VecEnv
 
 MakeEnv = Callable[..., VecEnv]
-"""make_env(dataset, num_envs, seed, **task) -> a VecEnv; ValueError for a bad dataset."""
+"""make_env(dataset, num_envs, seed, **task) -> a VecEnv; ValueError for a bad dataset
+(one written for other physics among them, unless keep_physics=True)."""
 Teacher = Callable[[np.ndarray], np.ndarray]
 """A policy of unstacked observations (N, obs_dim) -> actions (N, act_dim) in [-1, 1]."""
 
@@ -42,41 +43,10 @@ Teacher = Callable[[np.ndarray], np.ndarray]
 def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
     """`--set FIELD=VALUE` items -> {field: value} for `algo`'s config, each value parsed as
     the field's default is typed (ValueError naming the field and the valid ones)."""
-    from dataclasses import fields
-
+    from assetgen.core.overrides import parse_overrides as parse
     from rl.runner import ALGOS
 
-    cls = ALGOS[algo]
-    known = {f.name: f for f in fields(cls)}
-    out: dict[str, Any] = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        if not sep or name not in known:
-            raise ValueError(
-                f"--set {item!r}: give FIELD=VALUE with FIELD one of {cls.__name__}'s "
-                f"fields: {sorted(known)}"
-            )
-        default = known[name].default
-        try:
-            if isinstance(default, bool):
-                if text.lower() not in ("true", "false", "1", "0"):
-                    raise ValueError
-                value: Any = text.lower() in ("true", "1")
-            elif isinstance(default, tuple):
-                value = tuple(type(default[0])(x) for x in text.split(","))
-            elif default is None:
-                value = None if text.lower() == "none" else float(text)
-            else:
-                value = type(default)(float(text) if isinstance(default, int) else text)
-                if isinstance(default, int) and value != float(text):
-                    raise ValueError
-        except ValueError:
-            kind = {"int": "an integer", "float": "a number", "bool": "true or false"}.get(
-                type(default).__name__, f"a {type(default).__name__}"
-            )
-            raise ValueError(f"--set {item!r}: {name} takes {kind}") from None
-        out[name] = value
-    return out
+    return parse(ALGOS[algo], items)
 
 
 def _error(message: str) -> int:
@@ -178,6 +148,12 @@ def add_train_parser(
     p.add_argument(
         "--probe-attempts", type=int, default=2, help="probe episodes per module (default 2)"
     )
+    p.add_argument(
+        "--keep-dataset-physics",
+        action="store_true",
+        help="simulate a dataset written for other physics with the physics its files carry "
+        "(default: refuse it and say how to regenerate it)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
     p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}, make_probe_env))
@@ -221,6 +197,7 @@ def train_main(
                 )
             teacher = teachers[demos]()
         overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
+        keep = bool(getattr(args, "keep_dataset_physics", False))
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
             from rl.probe import make_probe
@@ -231,10 +208,14 @@ def train_main(
                 raise ValueError("--probe-steps: this env offers no evaluation env to probe")
             if args.probe_modules < 1:
                 raise ValueError(f"--probe-modules {args.probe_modules}: give at least 1")
-            probe_env = make_probe_env(args.dataset, args.probe_modules)
+            probe_env = make_probe_env(args.dataset, args.probe_modules, keep_physics=keep)
             probe = make_probe(probe_env, args.probe_attempts, args.stack)
         env = make_env(
-            args.dataset, args.envs or setup.num_envs, args.seed, curriculum_steps=curriculum
+            args.dataset,
+            args.envs or setup.num_envs,
+            args.seed,
+            curriculum_steps=curriculum,
+            keep_physics=keep,
         )
         result = train(
             args.algo,
@@ -289,7 +270,8 @@ class EvalHooks:
     """dataset -> whether it holds assemblies, played stage by stage by `run_sequence`."""
     run_sequence: Callable[..., dict[str, Any]] | None = None
     """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=, record=,
-    record_limit=) -> results per stage and for the whole sequence (sim/sequence.py)."""
+    record_limit=, keep_physics=) -> results per stage and for the whole sequence
+    (sim/sequence.py)."""
 
 
 def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
@@ -305,6 +287,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     noise_scale = getattr(args, "noise_scale", None)
     noise_scale = 1.0 if noise_scale is None else float(noise_scale)  # 0 is a valid scale
     record = getattr(args, "record", None)
+    keep = bool(getattr(args, "keep_dataset_physics", False))
     try:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
@@ -343,7 +326,9 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 return env
 
             if not sequence:
-                base = hooks.make_env(args.dataset, args.envs, args.seed, noise_scale=noise_scale)
+                base = hooks.make_env(
+                    args.dataset, args.envs, args.seed, noise_scale=noise_scale, keep_physics=keep
+                )
                 env = wrap(base)
             policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
             reset = reset_hook(agent)
@@ -376,7 +361,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             res = hooks.run_sequence(
                 args.dataset, policy, args.episodes, seed=args.seed, reset=reset, wrap=wrap,
                 noise_scale=noise_scale, record=None if record is None else Path(record),
-                record_limit=getattr(args, "record_limit", None),
+                record_limit=getattr(args, "record_limit", None), keep_physics=keep,
             )  # fmt: skip
             return _sequence_out(args, {**head, "dataset": str(args.dataset),
                                         "attempts": args.episodes, "seed": args.seed, **res},

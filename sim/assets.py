@@ -124,6 +124,35 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
     )
 
 
+def check_physics(root: Path | str, keep: bool = False):
+    """The physics to simulate the dataset at `root` with: None (the project's: the dataset
+    records the current PHYSICS_VERSION), or with `keep` the PhysicsConfig its dataset.json
+    records (a dataset older than the record: version 1). A dataset of another version
+    without `keep` raises AssetError naming both versions, how to regenerate the dataset and
+    how to keep its physics."""
+    from assetgen.core.mujoco_config import PHYSICS_VERSION, describe, physics_from_record
+    from assetgen.dataset.reader import Dataset
+    from assetgen.dataset.spec import DatasetError
+
+    try:
+        info = Dataset(root).info
+        version, physics = physics_from_record(info.get("physics"))
+    except (DatasetError, ValueError) as e:
+        raise AssetError(f"{root}: {e}") from e
+    if version == PHYSICS_VERSION:
+        return physics if keep else None
+    if keep:
+        return physics
+    name = Path(root).name
+    raise AssetError(
+        f"{root} was written for physics version {version} ({describe(physics)}); this "
+        f"simulator runs version {PHYSICS_VERSION}: regenerate it (`assetgen sample --dataset "
+        f"{name} --overwrite`, or `--out {root} --overwrite` with its --n/--seed), or keep the "
+        "physics its files carry (keep_physics=True; `--keep-dataset-physics` on the command "
+        "line)"
+    )
+
+
 def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleAsset]:
     """Every module of a dataset folder (or the listed ids), checked before simulation."""
     from assetgen.dataset.reader import Dataset

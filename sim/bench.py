@@ -51,7 +51,7 @@ def bench_sim(
     )
     build_s = time.perf_counter() - t0
     sim = env.sim
-    substeps = config.physics.substeps
+    substeps = env.cfg.physics.substeps
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)

@@ -9,7 +9,7 @@ exported MJCF files carry the same settings.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from assetgen.core.mujoco_config import PhysicsConfig
 
@@ -62,16 +62,20 @@ class TaskConfig:
     the plate's thickness: deeper than any contact transient, see task.failed)."""
     failure_reward: float = -1.0
     """Reward of the step that ends an episode in failure."""
-    physics: PhysicsConfig = field(default_factory=PhysicsConfig)
-    """MuJoCo settings."""
+    physics: PhysicsConfig | None = None
+    """MuJoCo settings. None: the project's physics for the modules' clearance
+    (assetgen.core.mujoco_config.physics_for: finer steps for finer clearances), which the
+    env resolves from its modules; a PhysicsConfig: exactly that."""
 
     @property
     def control_dt(self) -> float:
-        """Seconds per control step."""
-        return self.physics.timestep * self.physics.substeps
+        """Seconds per control step (the physics' substeps x timestep; 50 Hz by default)."""
+        p = self.physics or PhysicsConfig()
+        return p.timestep * p.substeps
 
     def validate(self) -> TaskConfig:
-        self.physics.validate()
+        if self.physics is not None:
+            self.physics.validate()
         checks = {
             "max_steps >= 1": self.max_steps >= 1,
             "curriculum_steps >= 0": self.curriculum_steps >= 0,

@@ -70,6 +70,10 @@ class StressConfig:
     max_faces: int = 8
     """At most this many face (and corner) directions a module: a 32-gon's are thinned to
     every 4th, evenly around it."""
+    twists: tuple[bool, ...] = (False, True)
+    """Pushes without and with the full-speed twist."""
+    doubles: tuple[bool, ...] = (False, True)
+    """Pushes at the force of a full command and at twice it."""
     double_ramp: tuple[float, float] = (0.3, 0.6)
     """The twice-the-force pushes ramp their command from full to twice full between these
     times, s: the peg is already at the wall."""
@@ -243,8 +247,8 @@ def module_runs(asset: ModuleAsset, cfg: StressConfig) -> tuple[list[Run], HoleG
         lo, hi = cfg.double_ramp
         for k, (what, angle) in enumerate(dirs):
             u = geo.direction(angle)
-            for twist in (False, True):
-                for double in (False, True):
+            for twist in cfg.twists:
+                for double in cfg.doubles:
                     lin = cfg.speed * u
                     ang = cfg.twist_speed * axis if twist else np.zeros(3)
                     press = -cfg.press_speed * axis
@@ -489,9 +493,12 @@ def _figures(
             speed = float(np.linalg.norm(vel[i, -w:], axis=1).mean())
             motion = float(np.linalg.norm(np.ptp(last, axis=0)))
             # a peg still settling moves one way (a slow tilt of the velocity-controlled peg
-            # until a second wall stops it); a chattering one goes back and forth
-            path = float(np.linalg.norm(np.diff(last, axis=0), axis=1).sum())
-            net = float(np.linalg.norm(last[-1] - last[0]))
+            # until a second wall stops it): a straight line over the window; a chattering
+            # one goes back and forth about that line
+            t = np.arange(w, dtype=float)
+            fit = np.polynomial.polynomial.polyfit(t, last, 1)
+            wobble = last - np.polynomial.polynomial.polyval(t, fit).T
+            wobble_motion = float(np.linalg.norm(np.ptp(wobble, axis=0)))
             through = ((beyond[i] > 0) & (pos[i, :, 2] < -geo.clearance)) | (
                 below[i] > cfg.floor_pass
             )
@@ -501,7 +508,7 @@ def _figures(
                 "rest_speed": speed,
                 "rest_motion": motion,
                 "moving": bool(speed > cfg.rest_speed or motion > cfg.rest_motion),
-                "back_and_forth": path / max(net, 1e-9),
+                "wobble_motion": wobble_motion,
                 "turning": float(np.linalg.norm(ang[i, -w:], axis=1).mean()),
                 "passed_through": bool(through.any()),
                 "twist": bool(r.info.get("twist", False)),
@@ -562,13 +569,10 @@ def _pct(x: np.ndarray, q: float) -> float:
     return float(np.percentile(x, q)) if len(x) else float("nan")
 
 
-CHATTER = 2.0
-"""A run not at rest chatters when its path over the window is more than this many times its
-net displacement (it goes back and forth); otherwise it is still settling one way."""
-
-
-def _chatters(r: dict) -> bool:
-    return bool(r["moving"] and r["back_and_forth"] > CHATTER)
+def _chatters(r: dict, cfg: StressConfig = StressConfig()) -> bool:
+    """A run chatters when, over the window, its motion about a straight line (its wobble)
+    exceeds the rest motion; a run not at rest that does not chatter is still settling."""
+    return bool(r["wobble_motion"] > cfg.rest_motion)
 
 
 def summarize(records: list[dict], clearance: float) -> dict:

@@ -35,9 +35,10 @@ from typing import Any
 
 import numpy as np
 
+from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim import task as T
-from sim.assets import ModuleAsset, load_dataset
+from sim.assets import ModuleAsset, check_physics, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
 from sim.scene import restitution_to_dampratio
@@ -89,6 +90,12 @@ class PegInHoleVecEnv:
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
             raise ValueError("no modules given: pass a dataset folder or a non-empty list")
+        if self.cfg.physics is None:
+            if not isinstance(dataset, list):
+                check_physics(dataset)
+            # the finest clearance sets the step (an assembly's stages differ)
+            clearance = min(m.clearance for m in modules)
+            self.cfg = replace(self.cfg, physics=physics_for(clearance))
         self.num_envs = len(modules) if num_envs is None else int(num_envs)
         if self.num_envs < 1:
             raise ValueError(f"num_envs = {num_envs}: need at least 1 environment")
@@ -443,18 +450,23 @@ def _dataset_root(dataset: str | Path) -> Path:
 
 
 def make_train_env(
-    dataset: str, num_envs: int, seed: int, curriculum_steps: int | None = None
+    dataset: str,
+    num_envs: int,
+    seed: int,
+    curriculum_steps: int | None = None,
+    keep_physics: bool = False,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
     paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
-    the modules in turns (a new module at every episode), so training sees all of them."""
-    config = TaskConfig()
+    the modules in turns (a new module at every episode), so training sees all of them.
+    A dataset written for other physics is refused unless `keep_physics` (then it is
+    simulated with the physics its files carry)."""
+    root = _dataset_root(dataset)
+    config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
-    return PegInHoleVecEnv(
-        _dataset_root(dataset), num_envs, config, assignment_seed=seed, rotate_modules=True
-    )
+    return PegInHoleVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
 
 
 def eval_config(noise_scale: float = 1.0) -> TaskConfig:
@@ -480,6 +492,7 @@ def make_eval_env(
     seed: int,
     noise_scale: float = 1.0,
     modules: int | None = None,
+    keep_physics: bool = False,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -487,11 +500,12 @@ def make_eval_env(
     noise_scale multiplies the four noise standard deviations (robustness: 2 = twice the
     paper's). The env's `protocol` dict names the dataset (folder and content hash), the
     control period and the noise scale, for the evaluation file. modules: the dataset's
-    first `modules` modules only (a training run's probe; the protocol uses all)."""
+    first `modules` modules only (a training run's probe; the protocol uses all).
+    keep_physics: as for make_train_env."""
     from assetgen.dataset.reader import Dataset, content_hash
 
-    config = eval_config(noise_scale)
     root = _dataset_root(dataset)
+    config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     ids = None
     if modules is not None:
         if modules < 1:
@@ -504,10 +518,13 @@ def make_eval_env(
             "checkpoint is evaluated with one env per module; raise --envs"
         )
     env = PegInHoleVecEnv(modules, len(modules), config, assignment_seed=seed)
+    ds = Dataset(root)
     env.protocol = {
         "dataset_folder": str(root),
-        "dataset_hash": content_hash(Dataset(root).records),
+        "dataset_hash": content_hash(ds.records),
         "control_dt": env.control_dt,
         "noise_scale": noise_scale,
+        "physics_version": physics_from_record(ds.info.get("physics"))[0],
+        "timestep": env.cfg.physics.timestep,
     }
     return env

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -307,15 +308,17 @@ def evaluate_assembly_dataset(
     progress: Callable[[str, int, int], None] | None = None,
     record: Path | None = None,
     record_limit: int | None = None,
+    keep_physics: bool = False,
 ) -> dict[str, Any]:
     """evaluate_sequence over every assembly of a dataset with the evaluation protocol's
     task config; the result names the dataset (folder and content hash) as `assetgen eval`'s
-    files do."""
+    files do. keep_physics: as for sim.env.make_train_env."""
     from assetgen.dataset.reader import Dataset, content_hash
+    from sim.assets import check_physics
     from sim.env import _dataset_root, eval_config
 
-    config = eval_config(noise_scale)
     root = _dataset_root(dataset)
+    config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     ds = Dataset(root)
     if not ds.ids:
         raise AssetError(f"{root} holds no finished assemblies; generate them first")

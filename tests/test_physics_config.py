@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from assetgen.core.mujoco_config import PhysicsConfig
+from assetgen.core.mujoco_config import PhysicsConfig, physics_for
 from sim.scene import build_model
 from tests.test_sim_common import modules, sim_dataset
 
@@ -30,7 +30,7 @@ OPT_FIELDS = (
 @pytest.mark.parametrize("index", [0, 1, 2, 3])
 def test_exported_file_is_the_training_physics(index: int) -> None:
     asset = modules()[index]
-    sim = build_model([asset], PhysicsConfig())
+    sim = build_model([asset], physics_for(asset.clearance))
     exported = mujoco.MjModel.from_xml_path(
         str(sim_dataset() / "modules" / asset.id / "peg_in_hole.xml")
     )
@@ -64,3 +64,68 @@ def test_exported_file_is_the_training_physics(index: int) -> None:
     ps, pe = sim.body("peg").id, exported.body("peg").id
     np.testing.assert_allclose(sim.body_mass[ps], exported.body_mass[pe])
     np.testing.assert_allclose(sim.body_inertia[ps], exported.body_inertia[pe], rtol=1e-6)
+
+
+PINNED = {
+    "version": 2,
+    "timestep": 0.0005,
+    "substeps": 40,
+    "contact_timeconst": 0.001,
+    "dampratio": 5.0,
+    "min_dampratio": 4.0,
+    "impratio": 100.0,
+    "solimp": [0.99, 0.9999, 0.0005, 0.5, 2.0],
+    "iterations": 30,
+    "integrator": "discrete",
+}
+"""The settings of PHYSICS_VERSION as the contact stress benchmark chose them (docs/physics.md):
+a change to any of them without a new version fails here, so no dataset's files claim
+physics they do not carry."""
+
+
+def test_physics_version_pins_the_settings() -> None:
+    from assetgen.core.mujoco_config import physics_record
+
+    record = physics_record(physics_for(1e-3))
+    assert {k: record[k] for k in PINNED} == PINNED
+
+
+def test_dataset_records_its_physics_and_the_simulator_refuses_others(tmp_path) -> None:
+    """dataset.json and every MJCF name the physics version; a dataset of another version is
+    refused with a message that says how to regenerate it or keep its physics, and kept on
+    request with the physics its record holds."""
+    import json
+    import shutil
+
+    from assetgen.core.mujoco_config import PHYSICS_TEXT, PHYSICS_VERSION
+    from sim.assets import AssetError, check_physics
+    from sim.env import make_eval_env
+
+    root = tmp_path / "ds"
+    shutil.copytree(sim_dataset(), root)
+    info = json.loads((root / "dataset.json").read_text())
+    assert info["physics"]["version"] == PHYSICS_VERSION
+    mid = modules()[0].id
+    spec = mujoco.MjSpec.from_file(str(root / "modules" / mid / "peg_in_hole.xml"))
+    assert spec.text(PHYSICS_TEXT).data.split()[-1] == str(PHYSICS_VERSION)
+    assert check_physics(root) is None
+
+    del info["physics"]  # as generator 0.5.0 wrote it: physics version 1, 5 ms steps
+    (root / "dataset.json").write_text(json.dumps(info))
+    with pytest.raises(AssetError) as e:
+        make_eval_env(str(root), None, 0, modules=1)
+    msg = str(e.value)
+    assert "version 1" in msg and f"version {PHYSICS_VERSION}" in msg and "5 ms" in msg
+    assert "--overwrite" in msg and "keep_physics=True" in msg and "--keep-dataset-physics" in msg
+    kept = check_physics(root, keep=True)
+    assert kept.timestep == 0.005 and kept.substeps == 4
+    env = make_eval_env(str(root), None, 0, modules=1, keep_physics=True)
+    assert env.cfg.physics == kept and env.protocol["physics_version"] == 1
+
+
+def test_validate_names_a_value_that_works() -> None:
+    works = r"use contact_timeconst >= 0.001 \(or timestep <= 0.0005\)"
+    with pytest.raises(ValueError, match=works):
+        PhysicsConfig(timestep=0.001, contact_timeconst=0.0005).validate()
+    with pytest.raises(ValueError, match=r"min_dampratio = 6.0, dampratio = 5.0"):
+        PhysicsConfig(dampratio=5.0, min_dampratio=6.0).validate()

@@ -18,7 +18,7 @@ same module and compares model.opt, the peg geom's contact parameters and the ac
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -29,20 +29,24 @@ INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler")
 class PhysicsConfig:
     """MuJoCo settings: integration, the velocity controller and contact softness."""
 
-    timestep: float = 0.005
-    """Physics step, s (200 Hz)."""
-    substeps: int = 4
+    timestep: float = 0.0005
+    """Physics step, s (2 kHz). MuJoCo finds a contact only once the surfaces overlap, so a
+    peg meeting a wall at full speed (0.25 m/s) is up to one step's travel inside it before
+    the contact acts: 0.125 mm at this step. Chosen with the contact stress benchmark
+    (`assetgen bench contacts`, docs/physics.md): the largest step that keeps transient
+    penetration within a quarter of a 0.5 mm clearance and half of 0.25 mm at p99."""
+    substeps: int = 40
     """Physics steps per control step (50 Hz control), run in C with no Python between."""
     integrator: str = "discrete"
     """MuJoCo integrator. `discrete` solves the contacts in the same effective inertia
     (M + h D) that integrates the controller's damping implicitly; under `implicitfast`
-    that damping (h kv ~ M) dilutes each contact impulse and a full-speed impact sinks
-    1.9 mm instead of <= 1.1 mm (measured, see sim/scene.py)."""
+    that damping dilutes each contact impulse (measured at 5 ms steps: a full-speed impact
+    sank 1.9 mm instead of 1.1 mm)."""
     tracking_time_constant: float = 0.005
     """Time constant of the velocity controller, s: kv = mass / tau (linear) and
     I_max / tau (angular, I_max the largest principal inertia about the bottom-face centre),
-    each capped so no command asks for more than `force_limit`. One timestep is fine:
-    the damping is integrated implicitly."""
+    each capped so no command asks for more than `force_limit`. The damping is integrated
+    implicitly, so any timestep is stable with it."""
     force_limit: float = 20.0
     """Most force a command can ask of a linear actuator, N: the gain is capped at
     force_limit / (2.2 x max_lin_vel), so even a full command reversal stays below it, and
@@ -54,21 +58,20 @@ class PhysicsConfig:
     force)."""
     # No contact margin: in MuJoCo 4 a margin moves the contact surface out by that much
     # (forces act from distance `margin`), which would eat into the 1 mm clearance.
-    contact_timeconst: float = 0.005
+    contact_timeconst: float = 0.001
     """Contact stiffness time constant T0, s: every contact spring has k = 1 / T0^2 and
     solref = (T0 / zeta, zeta) for its damping ratio zeta, so solref[0] * solref[1] = T0.
     Under the `discrete` integrator a row is resolvable (kept as authored) when
-    solref[0] * solref[1] >= timestep, hence T0 = timestep: the stiffest resolvable spring.
-    At full speed the transient penetration stays within one physics step's travel
-    (1.25 mm); 2 x timestep would give ~1.9 mm. Measured with `assetgen physics` on the
-    exported files (256 test-split modules): with zeta <= 1 a peg pushed with 5 N into a
-    wall/floor corner does not settle (a limit cycle of ~0.1 - 0.3 mm); see docs/physics.md."""
-    dampratio: float = 1.0
+    solref[0] * solref[1] >= timestep. Two timesteps: one (the stiffest) pushes the
+    penetration found at detection back out within a step, and a peg thrown at a wall with
+    the actuators off rebounds at e = 0.12; at two it is 0.09 (the stress benchmark)."""
+    dampratio: float = 5.0
     """Nominal contact damping ratio (restitution 0): the exported file's, and the
-    simulator's before its per-reset draw."""
-    min_dampratio: float = 0.85
-    """Contact damping ratio at restitution 1 (restitution 0: `dampratio`, linear between).
-    Below ~0.8 a peg pushed into a wall chatters forever at 200 Hz (see sim/scene.py)."""
+    simulator's before its per-reset draw. Overdamped: below ~3 a peg thrown at a wall
+    rebounds faster than a tenth of its speed (the stress benchmark)."""
+    min_dampratio: float = 4.0
+    """Contact damping ratio at restitution 1 (restitution 0: `dampratio`, linear between):
+    the draw randomises the damping over the range whose rebound stays near e = 0.1."""
     solimp: tuple[float, float, float, float, float] = (0.99, 0.9999, 0.0005, 0.5, 2.0)
     """Contact impedance (dmin, dmax, width m, midpoint, power). An impedance near 1 makes the
     constraint nearly hard: steady penetration = F (1 - d) / (d^2 k m_eff), micrometres at
@@ -81,8 +84,9 @@ class PhysicsConfig:
     """Contact dimensionality: normal + 2 tangential (sliding friction)."""
     cone: str = "elliptic"
     """Friction cone: elliptic (with impratio) models Coulomb friction more faithfully."""
-    impratio: float = 10.0
-    """Frictional-to-normal impedance ratio: > 1 makes friction stiffer (less creep)."""
+    impratio: float = 100.0
+    """Frictional-to-normal impedance ratio: > 1 makes friction stiffer (less creep). At 10
+    a peg pressed into a corner crept down the walls at ~10 um/s; at 100 it holds."""
     noslip_iterations: int = 0
     """Extra no-slip solver iterations (0: off)."""
     iterations: int = 30
@@ -103,25 +107,123 @@ class PhysicsConfig:
         return self.integrator != "discrete"
 
     def validate(self) -> PhysicsConfig:
-        checks = {
-            "substeps >= 1": self.substeps >= 1,
-            "timestep > 0": self.timestep > 0,
-            "runaway_speed > 0": self.runaway_speed > 0,
-            "contact_timeconst >= timestep": self.contact_timeconst >= self.timestep - 1e-12,
-            "contact_timeconst >= 2 timestep unless integrator is discrete": (
-                self.integrator == "discrete" or self.contact_timeconst >= 2 * self.timestep - 1e-12
+        """ValueError naming each setting out of range, with a value that would work."""
+        h, t0 = self.timestep, self.contact_timeconst
+        rows = [
+            (self.timestep > 0, f"timestep = {h!r}: give a positive step in seconds, e.g. 0.001"),
+            (self.substeps >= 1, f"substeps = {self.substeps!r}: give at least 1"),
+            (
+                self.runaway_speed > 0,
+                f"runaway_speed = {self.runaway_speed!r}: give a positive speed, e.g. 10",
             ),
-            f"integrator in {INTEGRATORS}": self.integrator in INTEGRATORS,
-            "cone in (elliptic, pyramidal)": self.cone in ("elliptic", "pyramidal"),
-            "0 < min_dampratio <= dampratio": 0 < self.min_dampratio <= self.dampratio,
-            "friction >= 0": min(self.friction, self.torsional_friction) >= 0,
-            "impratio >= 1": self.impratio >= 1,
-            "iterations >= 1": self.iterations >= 1,
-        }
-        bad = [k for k, ok in checks.items() if not ok]
+            (
+                self.integrator in INTEGRATORS,
+                f"integrator = {self.integrator!r}: use one of {list(INTEGRATORS)}",
+            ),
+            (
+                self.integrator != "discrete" or t0 >= h - 1e-12,
+                f"contact_timeconst = {t0!r} s is below the timestep {h!r} s: the discrete "
+                f"integrator cannot resolve such a spring; use contact_timeconst >= {h!r} "
+                f"(or timestep <= {t0!r})",
+            ),
+            (
+                self.integrator == "discrete" or t0 >= 2 * h - 1e-12,
+                f"contact_timeconst = {t0!r} s is below twice the timestep under "
+                f"{self.integrator!r}: use contact_timeconst >= {2 * h!r} (or timestep <= "
+                f"{t0 / 2!r}, or integrator 'discrete')",
+            ),
+            (
+                self.cone in ("elliptic", "pyramidal"),
+                f"cone = {self.cone!r}: use 'elliptic' or 'pyramidal'",
+            ),
+            (
+                0 < self.min_dampratio <= self.dampratio,
+                f"min_dampratio = {self.min_dampratio!r}, dampratio = {self.dampratio!r}: "
+                f"need 0 < min_dampratio <= dampratio, e.g. min_dampratio = {self.dampratio!r}",
+            ),
+            (
+                min(self.friction, self.torsional_friction, self.rolling_friction) >= 0,
+                "friction, torsional_friction and rolling_friction must be >= 0",
+            ),
+            (self.impratio >= 1, f"impratio = {self.impratio!r}: give 1 or more"),
+            (self.iterations >= 1, f"iterations = {self.iterations!r}: give at least 1"),
+        ]
+        bad = [msg for ok, msg in rows if not ok]
         if bad:
-            raise ValueError(f"PhysicsConfig: these must hold: {bad}")
+            raise ValueError("PhysicsConfig: " + "; ".join(bad))
         return self
+
+
+# ----------------------------------------------------------------------------- per clearance
+
+CLEARANCE_TIMESTEPS: tuple[tuple[float, float], ...] = ((1e-3, 0.0005), (0.0, 0.00025))
+"""(clearance from, m; timestep, s) rows: a module is stepped at the timestep of the first row
+whose clearance its own reaches: 0.5 ms from 1 mm up, 0.25 ms below. What set them (the
+contact stress benchmark, docs/physics.md): a peg pressed into an acute corner of its hole
+stays as deep as the impact left it (friction wedges it), so the depth at rest follows the
+transient, which follows the step; at 0.5 ms the depth at rest is 7 % of a 0.5 mm and 14 %
+of a 0.25 mm clearance, at 0.25 ms 3 % of 0.25 mm."""
+
+
+def physics_for(clearance: float, base: PhysicsConfig | None = None) -> PhysicsConfig:
+    """The physics a module of this clearance (m) is simulated with: `base` (the defaults)
+    with the timestep of CLEARANCE_TIMESTEPS, the control period kept (more substeps) and
+    the contact time constant kept at the same multiple of the timestep."""
+    base = base or PhysicsConfig()
+    if not (math.isfinite(clearance) and clearance > 0):
+        raise ValueError(f"clearance = {clearance!r}: give a positive gap in metres")
+    h = next(t for lo, t in CLEARANCE_TIMESTEPS if clearance >= lo - 1e-12)
+    period = base.timestep * base.substeps
+    return replace(
+        base,
+        timestep=h,
+        substeps=max(1, round(period / h)),
+        contact_timeconst=h * (base.contact_timeconst / base.timestep),
+    )
+
+
+# ----------------------------------------------------------------------------- versions
+
+PHYSICS_VERSION = 2
+"""Version of the project's physics: PhysicsConfig's defaults and `physics_for`. Every
+dataset.json and every exported MJCF records it; the simulator refuses a dataset of another
+version unless told to keep that dataset's physics. Bump it with any change to either."""
+
+LEGACY_PHYSICS: dict[int, dict] = {
+    1: {"timestep": 0.005, "substeps": 4, "contact_timeconst": 0.005, "dampratio": 1.0,
+        "min_dampratio": 0.85, "impratio": 10.0},
+}  # fmt: skip
+"""Earlier versions' settings where they differ from the defaults' fields. Version 1: the
+physics of generator 0.5.0 and before (5 ms steps), whose datasets record no version."""
+
+
+def physics_record(physics: PhysicsConfig, version: int = PHYSICS_VERSION) -> dict:
+    """`physics` as JSON (dataset.json), with its version."""
+    d = asdict(physics)
+    d["solimp"] = list(physics.solimp)
+    return {"version": version, **d}
+
+
+def physics_from_record(record: dict | None) -> tuple[int, PhysicsConfig]:
+    """(version, PhysicsConfig) of a dataset.json record; None (a dataset older than the
+    record) is version 1. ValueError for a malformed record."""
+    if record is None:
+        return 1, replace(PhysicsConfig(), **LEGACY_PHYSICS[1])
+    try:
+        fields = {k: v for k, v in record.items() if k != "version"}
+        if "solimp" in fields:
+            fields["solimp"] = tuple(fields["solimp"])
+        return int(record["version"]), PhysicsConfig(**fields).validate()
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"a malformed physics record ({e}); regenerate the dataset") from None
+
+
+def describe(physics: PhysicsConfig) -> str:
+    """A short summary for messages: `1 ms steps, T0 1 ms, zeta 3`."""
+    return (
+        f"{physics.timestep * 1e3:g} ms steps, contact T0 {physics.contact_timeconst * 1e3:g} ms, "
+        f"damping ratio {physics.dampratio:g}"
+    )
 
 
 # ----------------------------------------------------------------------------- derived values
@@ -225,6 +327,15 @@ def option_xml(physics: PhysicsConfig, indent: str = "  ") -> list[str]:
         f"{indent}  <flag {' '.join(flags)}/>",
         f"{indent}</option>",
     ]
+
+
+PHYSICS_TEXT = "physics_version"
+"""Name of the MJCF `<text>` custom field that holds PHYSICS_VERSION."""
+
+
+def physics_version_xml(indent: str = "    ") -> str:
+    """The `<text>` element (inside `<custom>`) recording the physics version."""
+    return f'{indent}<text name="{PHYSICS_TEXT}" data="assetgen physics {PHYSICS_VERSION}"/>'
 
 
 def geom_default_xml(physics: PhysicsConfig) -> str:

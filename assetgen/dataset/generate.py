@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from assetgen import GENERATOR_VERSION
 from assetgen.core.atomic_file import write_dataset_json as write_json
+from assetgen.core.mujoco_config import physics_for, physics_record
 from assetgen.core.timing import StepTimes, add_times
 from assetgen.dataset.reader import content_hash, manifest_line, read_manifest
 from assetgen.dataset.spec import DatasetError, DatasetSpec
@@ -112,6 +113,8 @@ def _info(spec: DatasetSpec, summary: dict | None) -> dict:
         "generator_version": GENERATOR_VERSION,
         "spec": spec.to_json(),
         "clearance_m": spec.config.clearance,
+        # the physics its MJCF files carry (the finest clearance's), and its version
+        "physics": physics_record(physics_for(spec.config.finest_clearance)),
         "seeds": [spec.seed_start, spec.seed_start + spec.count - 1],
         "summary": summary,
     }

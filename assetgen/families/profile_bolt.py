@@ -286,6 +286,11 @@ class ProfileBoltSampler:
         """The first step's clearance (the profile's), m: what a dataset lists as its own."""
         return self.profile_clearance
 
+    @property
+    def finest_clearance(self) -> float:
+        """The finest clearance of the steps, m: it sets the physics' timestep."""
+        return min(self.profile_clearance, self.bolt_clearance)
+
     def validate(self) -> ProfileBoltSampler:
         """Ranges are two finite numbers, low <= high, and both corners build."""
         for f in fields(self):

@@ -30,6 +30,8 @@ from assetgen.core.mujoco_config import (
     actuator_xml,
     geom_default_xml,
     option_xml,
+    physics_for,
+    physics_version_xml,
     velocity_gains,
 )
 from assetgen.families.parts import Assembly
@@ -46,17 +48,20 @@ def assembly_mjcf(
     assembly: Assembly,
     pieces: Mapping[str, Sequence[Mesh]],
     mass: Mapping[str, tuple[float, np.ndarray, np.ndarray]],
-    contact: PhysicsConfig = PhysicsConfig(),  # noqa: B008 (frozen)
+    contact: PhysicsConfig | None = None,
     name: str = "the assembly MJCF",
 ) -> bytes:
     """The assembly's MJCF as bytes, read back and compiled in MuJoCo before it is returned.
 
     pieces : every part's convex pieces in its part frame (m), the base's included.
     mass   : per moving part (kg, COM (3,) m, inertia (3, 3) kg m^2 about the COM), part frame.
+    contact: the MuJoCo configuration; None: the simulator's for the finest clearance of the
+    assembly's steps (assetgen.core.mujoco_config.physics_for).
     Raises ValueError naming the mesh or value (a piece not closed and convex, inline data
     that does not read back, a model MuJoCo refuses).
     """
-    contact.validate()
+    finest = min(s.clearance for s in assembly.steps)
+    contact = (contact or physics_for(finest)).validate()
     order = [BASE, *(p.name for p in assembly.parts)]
     meshes = {n: stored(pieces[n]) for n in order}
     lines = [
@@ -71,6 +76,7 @@ def assembly_mjcf(
             for s in assembly.steps
         ),
         f'    <text name="steps" data="{" ".join(s.part for s in assembly.steps)}"/>',
+        physics_version_xml(),
         "  </custom>",
         "  <default>",
         f'    <geom type="mesh" {geom_default_xml(contact)}/>',

@@ -53,6 +53,8 @@ from assetgen.core.mujoco_config import (
     actuator_xml,
     geom_default_xml,
     option_xml,
+    physics_for,
+    physics_version_xml,
     velocity_gains,
 )
 from assetgen.core.portable import norm
@@ -170,6 +172,7 @@ def mjcf_text(
         *option_xml(c),
         "  <custom>",
         f'    <numeric name="{CLEARANCE_NUMERIC}" data="{_num(clearance)}"/>',
+        physics_version_xml(),
         "  </custom>",
         "  <default>",
         f'    <geom type="mesh" {geom_default_xml(c)}/>',
@@ -241,7 +244,7 @@ def mjcf_document(
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
     clearance: float,
-    contact: PhysicsConfig = PhysicsConfig(),  # noqa: B008 (frozen)
+    contact: PhysicsConfig | None = None,
     name: str = "the MJCF",
 ) -> bytes:
     """The module's MJCF as bytes, after checking every input and compiling it in MuJoCo.
@@ -253,8 +256,8 @@ def mjcf_document(
     peg_mass    : kg.  peg_com: (3,) m, peg frame.  peg_inertia: (3, 3) kg m^2 about the
                   COM, axes of the peg frame.
     clearance   : m, stored in the file for the physics checks.
-    contact     : the MuJoCo configuration (the simulator's; see
-                  assetgen.core.mujoco_config.PhysicsConfig).
+    contact     : the MuJoCo configuration; None: the simulator's for this clearance
+                  (assetgen.core.mujoco_config.physics_for).
     name        : how error messages name the document.
 
     The meshes are stored as float32 millimetres (assetgen.core.inline_mesh.stored: pass
@@ -264,9 +267,9 @@ def mjcf_document(
     it. Raises ValueError naming the mesh or value and the problem (not closed, not convex,
     bad frame or mass properties, or a model MuJoCo refuses).
     """
-    contact.validate()
     if not (isinstance(clearance, int | float | np.floating) and 0 < clearance < 0.1):
         raise ValueError(f"clearance = {clearance!r}; expected a gap in metres, 0 < c < 0.1")
+    contact = (contact or physics_for(float(clearance))).validate()
     if not pieces:
         raise ValueError("pieces is empty; the module needs at least one collision piece")
     for what, m in [("peg", peg), *((piece_name(i), p) for i, p in enumerate(pieces))]:

@@ -46,6 +46,11 @@ class SamplerConfig:
     clearance: float = 0.001
     """Clearance, m (fixed, not sampled: 1 mm for training)."""
 
+    @property
+    def finest_clearance(self) -> float:
+        """The finest clearance of a module, m (its only one): it sets the physics' timestep."""
+        return self.clearance
+
     def validate(self) -> SamplerConfig:
         if not 0.0 <= self.polygon_probability <= 1.0:
             raise ParamError(f"polygon_probability = {self.polygon_probability} must be in [0, 1]")
