@@ -420,6 +420,13 @@ def build_parser() -> argparse.ArgumentParser:
         "peg_in_hole.xml files with the physics they carry",
     )
     b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
+    b.add_argument(
+        "--physics-version",
+        type=int,
+        default=None,
+        help="contacts: simulate with an earlier physics version's settings (1: generator "
+        "0.5.0's 5 ms steps), for comparison; default: the project's",
+    )
     b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
     b.set_defaults(func=cmd_bench)
 

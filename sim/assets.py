@@ -137,8 +137,10 @@ def check_physics(root: Path | str, keep: bool = False):
     try:
         info = Dataset(root).info
         version, physics = physics_from_record(info.get("physics"))
-    except (DatasetError, ValueError) as e:
-        raise AssetError(f"{root}: {e}") from e
+    except DatasetError as e:
+        raise AssetError(str(e)) from e
+    except ValueError as e:
+        raise AssetError(f"{root}/dataset.json: {e}") from e
     if version == PHYSICS_VERSION:
         return physics if keep else None
     if keep:

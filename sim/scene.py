@@ -97,6 +97,7 @@ def add_environment(
         g.friction = [0.0, 0.005, 0.0001]
         g.solref = solref
         g.solimp = solimp
+        g.margin = g.gap = physics.contact_margin  # detected early, active on penetration
         g.group = 1
     ref = spec.worldbody.add_site()
     ref.name = f"{prefix}{REF_SITE}"
@@ -136,6 +137,7 @@ def add_environment(
         g.friction = geom_friction(physics)
         g.solref = solref
         g.solimp = solimp
+        g.margin = g.gap = physics.contact_margin
     site = body.add_site()
     site.name = f"{prefix}{PEG_SITE}"
 

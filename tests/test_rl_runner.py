@@ -190,7 +190,7 @@ def test_commands(tmp_path, capsys) -> None:
     res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert res["status"] == "done" and res["env_steps"] == 128
     curriculum = get_setup("cpu", "ppo").curriculum_steps
-    assert made[-1] == ("toy", 2, 5, {"curriculum_steps": curriculum})
+    assert made[-1] == ("toy", 2, 5, {"curriculum_steps": curriculum, "keep_physics": False})
     meta = json.loads((out / "config.json").read_text())
     assert meta["env_options"] == {"curriculum_steps": curriculum}
     args = argparse.Namespace(run=out, dataset="toy", episodes=1, envs=None, seed=0, device=None,

@@ -8,15 +8,15 @@ Both read only the MJCF (sites `entrance` and `bottom`, body `peg`, numeric `cle
 work in the hole's own frame (a tilted hole is pushed along its own axis), change nothing
 on disk, and are deterministic. Penetrations are MuJoCo's own contact distances.
 
-How the force is applied matters more than one would think. At 200 Hz a 5 N force moves a
-free 0.2 kg peg 0.6 mm in a single step, and MuJoCo only finds a contact once the surfaces
-overlap: a peg flying into a wall under the full force is up to a step's travel (0.6 - 1 mm)
-inside it before any contact acts, and a contact lost for one step (a peg rocking onto one
-edge, or bouncing in a V between two walls) costs the same again. That measures the
-timestep, not the contact. So the push is guarded (see `_push`): while the peg touches
-nothing its speed is limited (`speed`, default 1 cm/s sideways, 10 cm/s down the hole);
-in contact the force ramps up to its full value over 10 steps, and the run ends once the
-peg has rested under the full force for `rest_steps` steps. `speed=None` gives the free,
+How the force is applied matters more than one would think. MuJoCo only finds a contact once
+the surfaces overlap: a peg flying into a wall under the full force is up to a step's travel
+inside it before any contact acts (at 5 ms steps 0.6 - 1 mm), and a contact lost for one step
+(a peg rocking onto one edge, or bouncing in a V between two walls) costs the same again. That
+measures the timestep, not the contact (the contact stress benchmark, sim/contact_stress.py,
+measures those impacts). So the push is guarded (see `_push`): while the peg touches nothing
+its speed is limited (`speed`, default 1 cm/s sideways, 10 cm/s down the hole); in contact
+the force ramps up to its full value over RAMP_TIME, and the run ends once the peg has rested
+under the full force for `rest_time` s. `speed=None` gives the free,
 unguarded push for comparison. By default the peg's orientation is held (rotational inertia
 x 1e6), as the task's controller holds it; see the functions for why.
 """
@@ -39,6 +39,10 @@ chattering contact (~10 mm/s and up), above the slow creep of MuJoCo's soft fric
 a wall (~0.1 mm/s with friction 1 and impratio 1)."""
 REST_ANGULAR_SPEED = 1e-2
 """... and turning slower than this (rad/s)."""
+REST_TIME = 0.2
+"""s: a push is at rest once the peg has rested under the full force this long."""
+RAMP_TIME = 0.05
+"""s: in contact, the force ramps to its full value over this time."""
 SEATED_LIFT = 1e-6
 """m above the floor at which `side_push_test` measures the seated peg's free travel: far
 below any tolerance of interest, enough for every distance to the floor to be positive."""
@@ -221,6 +225,11 @@ def _push(
     return pos, pen, False
 
 
+def _steps(model: mujoco.MjModel, seconds: float) -> int:
+    """Physics steps of `model` in `seconds` (at least one)."""
+    return max(1, round(seconds / model.opt.timestep))
+
+
 def _linear_damping(s: _Scene, u: np.ndarray) -> float:
     """Damping (N s/m) of the file's actuators against a translation of the peg along unit
     `u` at their current commands' bias: sum over velocity actuators (affine bias
@@ -291,13 +300,13 @@ def _free_travel(
 def drop_test(
     xml_path: Path,
     *,
-    steps: int | None = None,
+    duration: float | None = None,
     push: float = 5.0,
     gravity: float = 9.81,
     start_height: float = 0.005,
     speed: float | None = 0.1,
     hold_orientation: bool = True,
-    rest_steps: int = 40,
+    rest_time: float = REST_TIME,
     part: str | None = None,
     timestep: float | None = None,
 ) -> dict:
@@ -310,11 +319,10 @@ def drop_test(
     so a tilted hole is tested along its own axis) by its weight under `gravity` m/s^2 plus
     `push` N, both at the COM; while it touches nothing it moves at `speed` m/s at most
     (module docstring; None: free fall). It runs until it has rested under the full force
-    for `rest_steps` physics steps, `steps` at most (None: the descent at `speed` plus 200,
-    e.g. 480 for an 80 mm deep hole). With `hold_orientation` the peg's
-    rotational inertia is scaled by 1e6, as the task's controller holds the orientation: a
-    free peg landing on one edge first pivots, and on a frictionless floor the lateral
-    momentum of that pivot never dies away.
+    for `rest_time` s, `duration` s at most (None: the descent at `speed` plus 1 s). With
+    `hold_orientation` the peg's rotational inertia is scaled by 1e6, as the task's
+    controller holds the orientation: a free peg landing on one edge first pivots, and on
+    a frictionless floor the lateral momentum of that pivot never dies away.
 
     Returns (lengths m, angles rad, times s):
       rest_distance      |peg frame origin - bottom frame origin| at the end
@@ -337,12 +345,12 @@ def drop_test(
         m.body_inertia[s.body] *= 1e6
     weight = float(m.body_subtreemass[s.body]) * gravity
     s.reset(s.depth + start_height)
-    if steps is None:
-        travel = s.depth + start_height - s.clearance
-        steps = 200 + int(np.ceil(travel / ((speed or 0.25) * m.opt.timestep)))
+    if duration is None:
+        duration = 1.0 + (s.depth + start_height - s.clearance) / (speed or 0.25)
     _, pen, settled = _push(
-        s, -(weight + push) * axis, speed=speed, max_steps=steps, rest_steps=rest_steps
-    )
+        s, -(weight + push) * axis, speed=speed, max_steps=_steps(m, duration),
+        rest_steps=_steps(m, rest_time), ramp=_steps(m, RAMP_TIME),
+    )  # fmt: skip
     mujoco.mj_forward(m, d)  # contacts of the final state
     pen_end = s.penetration()
     offset = s.peg_pos() - s.bottom_pos
@@ -367,13 +375,13 @@ def side_push_test(
     *,
     force: float = 5.0,
     directions: int | Sequence[float] = 8,
-    steps: int = 400,
+    duration: float = 2.0,
     insertion: float = 1.0,
     axial_force: float = 0.0,
     gravity: float = 0.0,
     speed: float | None = 0.01,
     hold_orientation: bool = True,
-    rest_steps: int = 40,
+    rest_time: float = REST_TIME,
     part: str | None = None,
     timestep: float | None = None,
 ) -> dict:
@@ -389,8 +397,8 @@ def side_push_test(
     that way, plus `axial_force` N and the peg's weight under `gravity` m/s^2 down the axis
     (both 0: the task's weightless peg floating in the hole), all at the COM; while it
     touches nothing it moves at `speed` m/s at most (module docstring; None: a free impact).
-    Each push runs until the peg has rested under the full force for `rest_steps` physics
-    steps, `steps` at most. MuJoCo's own gravity is off (the weight is part of the push).
+    Each push runs until the peg has rested under the full force for `rest_time` s,
+    `duration` s at most. MuJoCo's own gravity is off (the weight is part of the push).
 
     With `hold_orientation` (default) the peg's rotational inertia is scaled by 1e6, so it
     translates only, as the task's controller holds the orientation: a free weightless peg
@@ -424,7 +432,7 @@ def side_push_test(
       along                per direction, the largest displacement along the push
       along_at_rest        per direction, the final displacement along the push
       jitter               per direction, the size (m) of the box the peg frame's origin
-                           moved in over the last `rest_steps` steps (contact chatter
+                           moved in over the last `rest_time` s (contact chatter
                            where a push does not settle; ~0 at rest)
       seated_free_travel   per direction, the free travel along the push from the seated
                            pose (frame on the bottom frame, 1 um above the floor): where a
@@ -438,6 +446,7 @@ def side_push_test(
         raise ValueError(f"insertion = {insertion!r}; expected a fraction in [0, 1]")
     t0 = time.perf_counter()
     s = _load(xml_path, part, timestep)
+    m = s.model
     s.model.opt.gravity[:] = 0.0
     if hold_orientation:
         s.model.body_inertia[s.body] *= 1e6
@@ -453,6 +462,7 @@ def side_push_test(
         angles = [float(a) for a in directions]
     rest_pen, all_pen = [], []
     settled, total = True, 0
+    rest_steps = _steps(m, rest_time)
     for angle in angles:
         u = np.cos(angle) * x + np.sin(angle) * y
         # 1 um above the floor: a pose touching the floor has no free travel at all
@@ -462,7 +472,12 @@ def side_push_test(
         start = s.peg_pos()
         out["free_travel"].append(_free_travel(s, u, limit=s.clearance + 0.01))
         pos, pen, ok = _push(
-            s, force * u - down * axis, speed=speed, max_steps=steps, rest_steps=rest_steps
+            s,
+            force * u - down * axis,
+            speed=speed,
+            max_steps=_steps(m, duration),
+            rest_steps=rest_steps,
+            ramp=_steps(m, RAMP_TIME),
         )
         mujoco.mj_forward(s.model, s.data)
         rest_pen.append(s.penetration())
