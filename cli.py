@@ -421,6 +421,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
     b.add_argument(
+        "--push-time", type=float, default=None, help="contacts: seconds a push lasts (1.5)"
+    )
+    b.add_argument(
         "--physics-version",
         type=int,
         default=None,

@@ -497,12 +497,12 @@ def _figures(
             speed = float(np.linalg.norm(vel[i, -w:], axis=1).mean())
             motion = float(np.linalg.norm(np.ptp(last, axis=0)))
             # a peg still settling moves one way (a slow tilt of the velocity-controlled peg
-            # until a second wall stops it): a straight line over the window; a chattering
-            # one goes back and forth about that line
-            t = np.arange(w, dtype=float)
-            fit = np.polynomial.polynomial.polyfit(t, last, 1)
-            wobble = last - np.polynomial.polynomial.polyval(t, fit).T
-            wobble_motion = float(np.linalg.norm(np.ptp(wobble, axis=0)))
+            # until a second wall stops it), along a line or an arc, and may stop within the
+            # window; a chattering one goes back and forth: its path, sampled every 10 ms,
+            # is longer than its net move
+            coarse = last[:: max(1, round(0.01 / h))]
+            path = float(np.linalg.norm(np.diff(coarse, axis=0), axis=1).sum())
+            wobble_motion = path - float(np.linalg.norm(coarse[-1] - coarse[0]))
             through = ((beyond[i] > 0) & (pos[i, :, 2] < -geo.clearance)) | (
                 below[i] > cfg.floor_pass
             )
@@ -579,8 +579,9 @@ def _pct(x: np.ndarray, q: float) -> float:
 
 
 def _chatters(r: dict, cfg: StressConfig = StressConfig()) -> bool:
-    """A run chatters when, over the window, its motion about a straight line (its wobble)
-    exceeds the rest motion; a run not at rest that does not chatter is still settling."""
+    """A run chatters when, over the window, its path (sampled every 10 ms) is longer than
+    its net move by more than the rest motion: it goes back and forth. A run not at rest
+    that does not chatter is still settling one way."""
     return bool(r["wobble_motion"] > cfg.rest_motion)
 
 
@@ -736,6 +737,11 @@ def main(args) -> int:
         if bad:
             raise ValueError(f"--cases: unknown {bad}; valid: {','.join(cfg.cases)}")
         cfg = replace(cfg, cases=cases)
+    push_time = getattr(args, "push_time", None)
+    if push_time is not None:
+        if not push_time > 2 * cfg.window:
+            raise ValueError(f"--push-time {push_time}: give more than {2 * cfg.window} s")
+        cfg = replace(cfg, push_time=push_time)
     assets = load_dataset(root, ids)
     # the dataset's clearance sets the step (physics_for), unless an older version is asked
     base = base or physics_for(min(a.clearance for a in assets))

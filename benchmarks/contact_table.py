@@ -1,0 +1,76 @@
+"""The contact stress benchmark's figures side by side, as a markdown table.
+
+    python -m benchmarks.contact_table A.json B.json ... [--labels "v1 1 mm,v2 1 mm,..."]
+
+Each file is one `assetgen bench contacts DATASET --json FILE` run (one clearance); the table
+has one column per file, in the order given, and one row per figure, lengths as a fraction of
+the clearance (and in mm), with each target met or missed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from sim.contact_stress import targets
+
+
+def _pct(s: dict, key: str) -> str:
+    return f"{100 * s[key] / s['clearance']:.0f} % ({s[key] * 1e3:.3f} mm)"
+
+
+ROWS = (
+    ("modules / pushes / impacts", lambda s: f"{s['modules']} / {s['pushes']} / {s['impacts']}"),
+    ("pass-throughs", lambda s: str(s["passed_through"])),
+    ("transient penetration, p99", lambda s: _pct(s, "penetration_p99")),
+    ("transient penetration, worst", lambda s: _pct(s, "penetration_worst")),
+    ("runs deeper than the clearance", lambda s: str(s["deeper_than_clearance"])),
+    ("depth at rest, worst", lambda s: _pct(s, "rest_depth_worst")),
+    (
+        "straight pushes not at rest (chattering)",
+        lambda s: f"{s['straight_not_at_rest']} ({s.get('straight_chattering', '–')})",
+    ),
+    (
+        "twisting pushes not at rest (chattering)",
+        lambda s: f"{s['twisting_not_at_rest']} ({s.get('twisting_chattering', '–')})",
+    ),
+    (
+        "sliding friction / configured",
+        lambda s: (
+            f"{min(v for k, v in s.items() if k.endswith('_min') and 'friction' in k):.3f}"
+            f"–{max(v for k, v in s.items() if k.endswith('_max') and 'friction' in k):.3f}"
+        ),
+    ),
+    ("rebound e, worst", lambda s: f"{s['rebound_worst']:.3f}"),
+    ("seconds (2 threads)", lambda s: f"{s['seconds']:.0f}"),
+)
+
+
+def table(docs: list[dict], labels: list[str]) -> str:
+    """Markdown: one column per document, its first summary."""
+    sums = [d["summaries"][0] | {"seconds": d["seconds"]} for d in docs]
+    lines = ["| figure | " + " | ".join(labels) + " |", "|---" * (len(labels) + 1) + "|"]
+    for name, cell in ROWS:
+        lines.append(f"| {name} | " + " | ".join(cell(s) for s in sums) + " |")
+    met = [targets(s) for s in sums]
+    for target in met[0]:
+        lines.append(
+            f"| target: {target} | "
+            + " | ".join("met" if m[target] else "**missed**" for m in met)
+            + " |"
+        )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("files", nargs="+")
+    p.add_argument("--labels", default=None, help="comma-separated column names")
+    a = p.parse_args()
+    docs = [json.loads(open(f).read()) for f in a.files]
+    labels = a.labels.split(",") if a.labels else a.files
+    print(table(docs, labels))
+
+
+if __name__ == "__main__":
+    main()
