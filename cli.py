@@ -391,6 +391,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--dataset", default="test", help="dataset (sim, load; default test)")
     b.add_argument("--threads", type=int, default=None, help="rollout threads (sim)")
     b.add_argument(
+        "--shard-size", type=int, default=None, help="sim: envs per MuJoCo model (default 8)"
+    )
+    b.add_argument(
         "--kernels",
         choices=["auto", "numba", "numpy"],
         default="auto",

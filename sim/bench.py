@@ -100,7 +100,7 @@ def bench_sim(
 
 def bench_main(args: argparse.Namespace) -> int:
     """`assetgen bench sim`: args.envs, and optionally args.steps, args.dataset (default
-    `test`), args.threads, args.json. Prints a short table (or JSON)."""
+    `test`), args.threads, args.shard_size, args.json. Prints a short table (or JSON)."""
     from assetgen.dataset.spec import resolve
 
     root, _ = resolve(getattr(args, "dataset", None) or "test")
@@ -110,12 +110,14 @@ def bench_main(args: argparse.Namespace) -> int:
         getattr(args, "steps", None) or 200,
         nthread=getattr(args, "threads", None),
         kernels=getattr(args, "kernels", None) or "auto",
+        shard_size=getattr(args, "shard_size", None) or 8,
     )
     if getattr(args, "json", False):
         print(json.dumps(res))
         return 0
     rows = [
         ("envs / modules / threads", f"{res['envs']} / {res['modules']} / {res['threads']}"),
+        ("envs per model (shard)", str(res["shard_size"])),
         ("per-step arithmetic", res["kernels"]),
         ("env steps/s (random actions)", f"{res['env_steps_per_s']:,.0f}"),
         ("raw rollout steps/s", f"{res['rollout_steps_per_s']:,.0f}"),

@@ -113,6 +113,8 @@ class PegInHoleVecEnv:
             rest = np.setdiff1d(np.arange(len(modules)), self.env_module)
             self._queue = np.random.default_rng(assignment_seed).permutation(rest).tolist()
             spare = [modules[k] for k in self._queue]
+        self._first_assignment = (self.env_module.copy(), list(self._queue))
+        """The modules' order at construction, which a seeded reset restores."""
         self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare, kernels)
         self.control_dt = self.cfg.control_dt
         self.protocol: dict[str, Any] = {}
@@ -282,10 +284,24 @@ class PegInHoleVecEnv:
 
     # ------------------------------------------------------------------ API
 
+    def restart_modules(self) -> None:
+        """Put every env back on its first module and the queue in its first order (a
+        rotating env; others never change modules)."""
+        if not self.rotate_modules:
+            return
+        first, queue = self._first_assignment
+        self._queue = list(queue)
+        for e, k in enumerate(first.tolist()):
+            if self.env_module[e] != k:
+                self.env_module[e] = k
+                self.sim.set_module(e, self.module_ids[k])
+
     def reset(self, seed: int | None = None) -> np.ndarray:
-        """Reset every env; `seed` makes everything after it reproducible."""
+        """Reset every env; `seed` makes everything after it reproducible (a rotating env
+        also starts the modules' order again)."""
         if seed is not None:
             self.rng = np.random.default_rng(seed)
+            self.restart_modules()
         self._reset_envs(np.arange(self.num_envs))
         self._obs = self._observe(np.arange(self.num_envs))
         return self._obs.copy()

@@ -1,5 +1,13 @@
 """Gymnasium views of the vector env: a `gymnasium.vector.VectorEnv` (all envs) and a
-`gymnasium.Env` (one env, for `gymnasium.utils.env_checker.check_env`).
+`gymnasium.Env` (one env, for `gymnasium.utils.env_checker.check_env`), registered as
+`assetgen/PegInHole-v0` when this module is imported:
+
+    import gymnasium as gym
+    import sim.gym_adapter  # registers the id
+    env = gym.make("assetgen/PegInHole-v0", dataset="test")
+    envs = gym.make_vec("assetgen/PegInHole-v0", num_envs=64, dataset="test")
+
+(or in one line, `gym.make("sim.gym_adapter:assetgen/PegInHole-v0", dataset=...)`).
 
 gymnasium is imported here only, so sim/ works without it (it is an optional dependency).
 """
@@ -51,6 +59,8 @@ class GymVectorEnv(VectorEnv):
         super().reset(seed=seed)
         # one generator for the adapter and the env: seeded resets reproduce both
         self.env.rng = self.np_random
+        if seed is not None:
+            self.env.restart_modules()
         return self.env.reset(), {}
 
     def step(
@@ -102,6 +112,8 @@ class GymEnv(gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         self.env.rng = self.np_random
+        if seed is not None:
+            self.env.restart_modules()
         return self.env.reset()[0], {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -117,3 +129,44 @@ class GymEnv(gym.Env):
 
     def close(self) -> None:
         self.env.close()
+
+
+ENV_ID = "assetgen/PegInHole-v0"
+"""The gymnasium id of the task (registered when this module is imported)."""
+
+
+def _vec_env(
+    dataset: str, num_envs: int, seed: int, keep_physics: bool, task: dict[str, Any]
+) -> PegInHoleVecEnv:
+    from dataclasses import replace
+
+    from sim.assets import check_physics
+    from sim.config import TaskConfig
+    from sim.env import _dataset_root
+
+    root = _dataset_root(dataset)
+    config = replace(TaskConfig(physics=check_physics(root, keep_physics)), **task)
+    # with fewer envs than modules every episode takes the next module (make_train_env)
+    return PegInHoleVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
+
+
+def make_env(dataset: str, seed: int = 0, keep_physics: bool = False, **task: Any) -> GymEnv:
+    """`gymnasium.make(ENV_ID, dataset=...)`: one env over the dataset (a spec name or a
+    folder), a new module every episode; `task`: TaskConfig fields to replace (e.g.
+    curriculum_steps=0 for the full spawn ranges); keep_physics: as for make_train_env."""
+    return GymEnv(_vec_env(dataset, 1, seed, keep_physics, task))
+
+
+def make_vector_env(
+    dataset: str, num_envs: int = 1, seed: int = 0, keep_physics: bool = False, **task: Any
+) -> GymVectorEnv:
+    """`gymnasium.make_vec(ENV_ID, num_envs=N, dataset=...)`: N envs stepped together."""
+    return GymVectorEnv(_vec_env(dataset, num_envs, seed, keep_physics, task))
+
+
+if ENV_ID not in gym.registry:
+    gym.register(
+        ENV_ID,
+        entry_point="sim.gym_adapter:make_env",
+        vector_entry_point="sim.gym_adapter:make_vector_env",
+    )

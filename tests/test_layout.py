@@ -133,11 +133,39 @@ FORBIDDEN = re.compile(
 )
 
 
+def repository_files(root: Path) -> list[Path]:
+    """The files of the checkout at `root` that git tracks or would track (untracked files
+    that .gitignore does not ignore), never a virtual environment or a dataset beside them;
+    without git, every file outside the folders .gitignore names and `.git`."""
+    import subprocess
+
+    try:
+        out = subprocess.run(
+            ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+            cwd=root, capture_output=True, check=True,
+        ).stdout  # fmt: skip
+        return sorted(root / p for p in out.decode().split("\0") if p and (root / p).is_file())
+    except (OSError, subprocess.CalledProcessError):
+        ignored = {".git"}
+        gitignore = root / ".gitignore"
+        if gitignore.exists():
+            ignored |= {
+                line.strip().strip("/").rstrip("/*")
+                for line in gitignore.read_text().splitlines()
+                if line.strip() and not line.startswith("#") and "*" not in line.rstrip("/*")
+            }
+        return sorted(
+            p
+            for p in root.rglob("*")
+            if p.is_file() and not ignored & set(p.relative_to(root).parts)
+        )
+
+
 def test_no_file_points_outside_the_repository_or_tells_its_history():
     offenders = []
-    for path in sorted(ROOT.rglob("*")):
+    for path in repository_files(ROOT):
         rel = path.relative_to(ROOT)
-        if rel.parts[0] in {".git", "datasets", "runs", ".ruff_cache", ".pytest_cache"}:
+        if rel.parts[0] in {"datasets", "runs"}:
             continue
         if path.suffix not in {".py", ".md", ".toml", ".json"} and path.name != "run":
             continue
@@ -162,3 +190,42 @@ def test_forbidden_pattern_catches_what_it_should():
     for text in caught:
         assert FORBIDDEN.search(text), text
     assert not FORBIDDEN.search("designs, references and the leading edge")
+
+
+@pytest.mark.parametrize("git", [True, False])
+def test_a_virtual_environment_in_the_checkout_is_not_read(tmp_path, monkeypatch, git):
+    """Nearly everyone makes `python -m venv .venv` in the checkout: the tests read the
+    repository's own files, never the packages installed there."""
+    import shutil
+    import subprocess
+
+    shutil.copy(ROOT / ".gitignore", tmp_path / ".gitignore")
+    lines = (ROOT / ".gitignore").read_text().split()
+    assert ".venv/" in lines and "venv/" in lines
+    (tmp_path / "mod.py").write_text("x = 1\n")
+    for env in (".venv", "venv"):
+        site = tmp_path / env / "lib" / "python3.11" / "site-packages"
+        site.mkdir(parents=True)
+        (site / "numpy.py").write_text("# see " + "iss" + "ue #4984\n")
+    if git:
+        if shutil.which("git") is None:
+            pytest.skip("git is not installed")
+        subprocess.run(["git", "init", "-q"], cwd=tmp_path, check=True)
+    else:
+        monkeypatch.setenv("PATH", "")  # no git to ask
+    assert [p.name for p in repository_files(tmp_path)] == [".gitignore", "mod.py"]
+
+
+def test_the_package_version_is_the_generators():
+    """One version: the package's (pyproject.toml) is the generator's, which every dataset
+    records."""
+    import tomllib
+
+    from assetgen import GENERATOR_VERSION
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["version"] == GENERATOR_VERSION
+    # torch's exact version is a constraint (constraints.txt), not a requirement, so a GPU
+    # machine keeps its CUDA build
+    assert not any(r.startswith("torch==") for r in project["optional-dependencies"]["rl"])
+    assert "torch==2.13.0" in (ROOT / "constraints.txt").read_text().split()

@@ -23,6 +23,30 @@ def test_single_env_passes_gymnasiums_checker() -> None:
         check_env(env)
 
 
+def test_gymnasium_make_and_make_vec() -> None:
+    """The registered id gives the single env (gymnasium's checker passes on it) and the
+    batched one, over a dataset folder."""
+    from sim.gym_adapter import ENV_ID
+    from tests.test_sim_common import sim_dataset
+
+    env = gym.make(ENV_ID, dataset=str(sim_dataset()), curriculum_steps=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*render modes.*")
+        check_env(env.unwrapped)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (18,) and env.unwrapped.env.cfg.curriculum_steps == 0
+    env.close()
+    envs = gym.make_vec(ENV_ID, num_envs=3, dataset=str(sim_dataset()))
+    obs, _ = envs.reset(seed=0)
+    assert obs.shape == (3, 18)
+    obs, r, term, trunc, _ = envs.step(envs.action_space.sample())
+    assert r.shape == term.shape == trunc.shape == (3,)
+    envs.close()
+    with pytest.raises(ValueError, match="no dataset spec named"):
+        gym.make(ENV_ID, dataset="no-such-dataset")
+
+
 def test_vector_env_follows_gymnasiums_same_step_autoreset() -> None:
     inner = PegInHoleVecEnv(list(modules()[:2]), 3, replace(quiet(), noise=True, max_steps=4))
     env = gym.wrappers.vector.RecordEpisodeStatistics(GymVectorEnv(inner))
