@@ -131,6 +131,13 @@ def _open_dataset(name: str):
     return root
 
 
+def _physics_arguments(ap: argparse.ArgumentParser) -> None:
+    # declared once, in the physics stage (which imports MuJoCo only when checks run)
+    from assetgen.physics.arguments import add_arguments
+
+    add_arguments(ap)
+
+
 def cmd_physics(args: argparse.Namespace) -> int:
     from assetgen.dataset.spec import DatasetError, resolve
     from assetgen.physics.report import report
@@ -366,14 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_check)
 
     ph = sub.add_parser("physics", help="MJCF physics checks (drop, side pushes) per module")
-    ph.add_argument("dataset", help="spec name or dataset folder")
-    ph.add_argument("--limit", type=int, default=None, help="first N modules only")
-    ph.add_argument("--json", type=Path, default=None, help="write per-module figures here")
-    ph.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
-    ph.add_argument(
-        "--timestep", type=float, default=None,
-        help="assembly datasets: simulate with this physics step (s), finer than the files' 5 ms",
-    )  # fmt: skip
+    _physics_arguments(ph)
     ph.set_defaults(func=cmd_physics)
 
     i = sub.add_parser("info", help="summary of a dataset's parameter distributions")

@@ -55,10 +55,11 @@ def _pinned() -> dict[str, str]:
 
 
 def test_golden_content_hash(native_hash):
+    # a local build tag (torch's "+cpu") is the same release; torch writes no module file
     differ = {
         name: (version, metadata.version(name))
         for name, version in _pinned().items()
-        if metadata.version(name) != version
+        if metadata.version(name).split("+")[0] != version
     }
     if differ:
         pytest.skip(f"the golden hash holds for constraints.txt; installed differ: {differ}")

@@ -250,6 +250,14 @@ def geom_friction(physics: PhysicsConfig, sliding: float | None = None) -> list[
     return [float(s), physics.torsional_friction, physics.rolling_friction]
 
 
+def material(physics: PhysicsConfig | None = None) -> tuple[float, float, float]:
+    """(static friction, dynamic friction, restitution) of the physics material the USD
+    files carry: the MJCF's nominal sliding friction for both, and restitution 0 (the
+    MJCF's damping ratio is the restitution draw's e = 0 end)."""
+    p = physics or PhysicsConfig()
+    return (p.friction, p.friction, 0.0)
+
+
 def velocity_gains(
     mass: float,
     com: np.ndarray,

@@ -24,6 +24,7 @@ import numpy as np
 from assetgen.core.frames import Frame
 from assetgen.core.inline_mesh import mesh_element, stored
 from assetgen.core.inline_mesh import part_piece_name as mesh_name
+from assetgen.core.mass_properties import MassProperties
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -35,7 +36,7 @@ from assetgen.core.mujoco_config import (
     velocity_gains,
 )
 from assetgen.families.parts import Assembly
-from assetgen.formats.mjcf import ORIGIN_SITE, _check_mass, _num, _vec, verified_model
+from assetgen.formats.mjcf import ORIGIN_SITE, _num, _vec, verified_model
 
 BASE = "base"
 
@@ -103,7 +104,8 @@ def assembly_mjcf(
     actuators = []
     for part in assembly.parts:
         m, com, inertia = mass[part.name]
-        com, inertia = _check_mass(m, com, inertia)
+        props = MassProperties.checked(m, com, inertia, part.name)
+        com, inertia = props.com, props.inertia
         full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2],
                 inertia[1, 2]]  # fmt: skip
         pose = Frame.from_matrix(part.pose)

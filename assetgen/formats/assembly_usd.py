@@ -25,9 +25,10 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
 
 from assetgen.core.frames import Frame
+from assetgen.core.mass_properties import MassProperties
 from assetgen.core.mesh import Mesh
 from assetgen.families.parts import Assembly
-from assetgen.formats.usd import _principal
+from assetgen.formats.usd import MATERIAL
 
 ROOT = "/assembly"
 _COLORS = {"base": (0.6, 0.6, 0.62)}
@@ -58,14 +59,14 @@ def assembly_usda(
     surfaces: Mapping[str, Mesh],
     pieces: Mapping[str, Sequence[Mesh]],
     mass: Mapping[str, tuple[float, np.ndarray, np.ndarray]],
-    friction: tuple[float, float, float] = (0.5, 0.5, 0.0),
+    friction: tuple[float, float, float] = MATERIAL,
 ) -> str:
     """The stage as .usda text.
 
     surfaces : each part's closed surface, part frame (m).
     pieces   : each part's convex pieces, part frame (m).
     mass     : per moving part (kg, COM (3,) m, inertia (3, 3) kg m^2 about the COM).
-    friction : (static, dynamic, restitution) of the one physics material.
+    friction : (static, dynamic, restitution) of the one physics material (the MJCF's).
     """
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -97,7 +98,7 @@ def assembly_usda(
         if part.name in mass:
             UsdPhysics.RigidBodyAPI.Apply(xf.GetPrim())
             kg, com, inertia = mass[part.name]
-            moments, axes = _principal(np.asarray(inertia, float))
+            moments, axes = MassProperties.checked(kg, com, inertia, part.name).principal()
             api = UsdPhysics.MassAPI.Apply(xf.GetPrim())
             api.CreateMassAttr(float(kg))
             api.CreateCenterOfMassAttr(Gf.Vec3f(*map(float, com)))

@@ -47,6 +47,7 @@ from assetgen.core.inline_mesh import (
     same_mesh,
     stored,
 )
+from assetgen.core.mass_properties import MassProperties
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import (
     PhysicsConfig,
@@ -95,32 +96,6 @@ def _check_frame(frame: Frame, name: str) -> tuple[np.ndarray, np.ndarray]:
     return pos, quat / norm(quat)
 
 
-def _check_mass(mass: float, com: np.ndarray, inertia: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Validated (com (3,) m, inertia (3, 3) kg m^2 about the COM in the peg frame)."""
-    if not (isinstance(mass, int | float | np.floating) and np.isfinite(mass) and mass > 0):
-        raise ValueError(f"peg_mass = {mass!r}; expected a finite mass > 0 in kilograms")
-    com = np.asarray(com, dtype=float)
-    if com.shape != (3,) or not np.isfinite(com).all():
-        raise ValueError(f"peg_com = {com!r}; expected a finite (3,) point in the peg frame, m")
-    inertia = np.asarray(inertia, dtype=float)
-    if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
-        raise ValueError(
-            f"peg_inertia has shape {inertia.shape} or non-finite entries; expected a finite "
-            "(3, 3) inertia tensor about the COM in the peg frame, kg m^2"
-        )
-    if not np.allclose(inertia, inertia.T, rtol=0.0, atol=1e-9 * float(np.abs(inertia).max())):
-        raise ValueError("peg_inertia is not symmetric; pass the (3, 3) inertia tensor")
-    moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-    if not moments.min() > 0 or moments.max() > moments.sum() - moments.max() + 1e-12 * (
-        moments.max()
-    ):
-        raise ValueError(
-            f"peg_inertia has principal moments {moments.tolist()} kg m^2; they must be > 0 "
-            "and obey the triangle inequality (a physical body)"
-        )
-    return com, 0.5 * (inertia + inertia.T)
-
-
 # ---------------------------------------------------------------------------------------------
 # XML text: deterministic (repr of floats is the shortest round-trip form)
 # ---------------------------------------------------------------------------------------------
@@ -153,7 +128,8 @@ def mjcf_text(
     ent_pos, ent_quat = _check_frame(entrance, "entrance")
     bot_pos, bot_quat = _check_frame(bottom, "bottom")
     peg_pos, peg_quat = _check_frame(peg_pose, "peg_pose")
-    com, inertia = _check_mass(peg_mass, peg_com, peg_inertia)
+    props = MassProperties.checked(peg_mass, peg_com, peg_inertia)
+    com, inertia = props.com, props.inertia
     full = [
         inertia[0, 0],
         inertia[1, 1],

@@ -45,9 +45,10 @@ import numpy as np
 from pxr import Gf, Sdf, Vt
 
 from assetgen.core.frames import Frame
+from assetgen.core.mass_properties import MassProperties
 from assetgen.core.mesh import Mesh
+from assetgen.core.mujoco_config import material
 from assetgen.core.portable import norm
-from assetgen.core.rotations import matrix_to_quat
 
 ROOT = "module"
 """Name of the default prim; every path below starts with /module."""
@@ -107,6 +108,10 @@ def _check_frame(frame: Frame, name: str) -> np.ndarray:
     return quat / norm(quat)
 
 
+MATERIAL = material()
+"""The physics material's (static friction, dynamic friction, restitution): the MJCF's."""
+
+
 def _check_scalar(value: float, name: str, lo: float, hi: float, what: str) -> None:
     try:
         ok = bool(np.isfinite(value) and lo <= value <= hi)
@@ -114,44 +119,6 @@ def _check_scalar(value: float, name: str, lo: float, hi: float, what: str) -> N
         ok = False
     if not ok:
         raise ValueError(f"{name} = {value!r}; {what}")
-
-
-def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Principal moments (3,) kg m^2 and axes as a quaternion (4,) (w, x, y, z): the rotation R
-    with inertia = R diag(moments) R^T, which is how UsdPhysics reads principalAxes."""
-    moments, axes = np.linalg.eigh(inertia)
-    if np.linalg.det(axes) < 0:  # eigh may return a reflection; a rotation is needed
-        axes[:, 2] = -axes[:, 2]
-    return moments, matrix_to_quat(axes)
-
-
-def _check_mass(
-    mass: float, com: np.ndarray, inertia: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Validate the peg's mass properties; return com (3,), moments (3,) and axes quat (4,)."""
-    _check_scalar(mass, "peg_mass", 0.0, np.inf, "expected a finite mass > 0 in kilograms")
-    if not mass > 0:
-        raise ValueError(f"peg_mass = {mass!r}; expected a finite mass > 0 in kilograms")
-    com = np.asarray(com, dtype=float)
-    if com.shape != (3,) or not np.isfinite(com).all():
-        raise ValueError(
-            f"peg_com = {com!r}; expected a finite (3,) centre of mass in the peg frame, metres"
-        )
-    inertia = np.asarray(inertia, dtype=float)
-    if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
-        raise ValueError(
-            f"peg_inertia has shape {inertia.shape} or non-finite entries; expected a finite "
-            "(3, 3) inertia tensor about the COM in the peg frame, kg m^2"
-        )
-    if not np.allclose(inertia, inertia.T, rtol=0.0, atol=1e-9 * float(np.abs(inertia).max())):
-        raise ValueError("peg_inertia is not symmetric; pass the (3, 3) inertia tensor itself")
-    moments, axes = _principal(inertia)
-    if not moments.min() > 0:
-        raise ValueError(
-            f"peg_inertia has principal moments {moments.tolist()}; all must be > 0 "
-            "(a positive-definite tensor about the COM, kg m^2)"
-        )
-    return com, moments, axes
 
 
 # ---------------------------------------------------------------------------------------------
@@ -446,9 +413,9 @@ def usda_text(
     peg_mass: float,
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
-    static_friction: float = 0.5,
-    dynamic_friction: float = 0.5,
-    restitution: float = 0.0,
+    static_friction: float = MATERIAL[0],
+    dynamic_friction: float = MATERIAL[1],
+    restitution: float = MATERIAL[2],
     sdf_resolution: int = SDF_RESOLUTION,
 ) -> str:
     """The module's stage as .usda text; arguments as in write_usd.
@@ -465,7 +432,9 @@ def usda_text(
         n: (tuple(float(c) for c in f.pos), _check_frame(f, n))
         for n, f in (("entrance", entrance), ("bottom", bottom), ("peg_pose", peg_pose))
     }
-    com, moments, axes = _check_mass(peg_mass, peg_com, peg_inertia)
+    props = MassProperties.checked(peg_mass, peg_com, peg_inertia)
+    com = props.com
+    moments, axes = props.principal()
     for value, n in ((static_friction, "static_friction"), (dynamic_friction, "dynamic_friction")):
         _check_scalar(value, n, 0.0, np.inf, "expected a finite friction coefficient >= 0")
     _check_scalar(restitution, "restitution", 0.0, 1.0, "expected a restitution in [0, 1]")
@@ -496,9 +465,9 @@ def write_usd(
     peg_mass: float,
     peg_com: np.ndarray,
     peg_inertia: np.ndarray,
-    static_friction: float = 0.5,
-    dynamic_friction: float = 0.5,
-    restitution: float = 0.0,
+    static_friction: float = MATERIAL[0],
+    dynamic_friction: float = MATERIAL[1],
+    restitution: float = MATERIAL[2],
     sdf_resolution: int = SDF_RESOLUTION,
 ) -> None:
     """Write the module as one USD stage for Isaac Sim, atomically.

@@ -30,6 +30,7 @@ from multiprocessing import get_context
 from pathlib import Path
 
 from assetgen.core.atomic_file import write_json
+from assetgen.physics.arguments import add_arguments
 from assetgen.physics.mjcf_checks import corner_angles, drop_test, side_face_angles, side_push_test
 
 GRAVITY = 9.81
@@ -180,19 +181,16 @@ def failures(figures: dict[str, float]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from assetgen.dataset.spec import resolve
+
     ap = argparse.ArgumentParser(
         prog="python -m assetgen.physics.report",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    ap.add_argument("dataset", type=Path, help="dataset folder (with manifest.jsonl)")
-    ap.add_argument("--limit", type=int, default=None, help="first N modules only")
-    ap.add_argument("--json", type=Path, default=None, help="write per-module figures here")
-    ap.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
-    ap.add_argument("--timestep", type=float, default=None,
-                    help="assemblies: a physics step (s) finer than the files' 5 ms")  # fmt: skip
+    add_arguments(ap)
     args = ap.parse_args(argv)
-    return report(args.dataset, args.limit, args.json, args.workers, args.timestep)
+    return report(resolve(args.dataset)[0], args.limit, args.json, args.workers, args.timestep)
 
 
 def report(

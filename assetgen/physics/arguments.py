@@ -1,0 +1,18 @@
+"""The arguments of the physics checks' command, declared once for `assetgen physics` and
+`python -m assetgen.physics.report` (importing nothing heavy: the CLI builds its parser
+without MuJoCo)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command's arguments (`assetgen physics` and `python -m assetgen.physics.report`)."""
+    ap.add_argument("dataset", help="spec name (test) or dataset folder")
+    ap.add_argument("--limit", type=int, default=None, help="first N modules only")
+    ap.add_argument("--json", type=Path, default=None, help="write per-module figures here")
+    ap.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    ap.add_argument("--timestep", type=float, default=None,
+                    help="assemblies: a physics step (s) finer than the files'")  # fmt: skip
