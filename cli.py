@@ -31,8 +31,8 @@ def _err(msg: str) -> int:
 
 
 def _sample_spec(args: argparse.Namespace):
+    from assetgen.dataset.families import family
     from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
-    from assetgen.families.registry import family
     from assetgen.formats.registry import available_formats
     from assetgen.params.sampler import SamplerConfig
 

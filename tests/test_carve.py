@@ -14,9 +14,9 @@ from scipy.optimize import linprog
 from scipy.spatial import ConvexHull
 
 from assetgen.collision.carve import carve, carve_cells, farthest_cells
-from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh, cross3
 from assetgen.geometry.polytope import transform_planes
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 C = 1e-3
 MATERIAL_LO, MATERIAL_HI = np.array([-0.05, -0.05, -0.04]), np.array([0.05, 0.05, 0.0])

@@ -10,7 +10,6 @@ from assetgen.checks.module_checks import CheckError
 from assetgen.collision.exact import OVERLAP, exact_pieces
 from assetgen.collision.pieces import UNION_TOLERANCE, check_pieces, collision_pieces
 from assetgen.core.stl import parse_stl_mm, read_stl_triangles_mm, stl_bytes
-from assetgen.formats.context import ExportContext
 from assetgen.geometry.solids import build_module, insertion_travel
 from assetgen.params.sampler import SamplerConfig, sample_params
 
@@ -41,7 +40,7 @@ def test_exact_pieces_are_convex_and_without_overlap_add_up_to_the_module(seed):
 @pytest.mark.parametrize("name", list(CORNERS))
 def test_corner_pieces_keep_the_clearance(name, tmp_path):
     g = build_module(CORNERS[name])
-    rec = collision_pieces(ExportContext(tmp_path, g, {}), insertion_travel(g))
+    _, rec = collision_pieces(g, insertion_travel(g))
     assert rec["volume_ratio"] > 1.0  # the pieces overlap at their seams
     assert rec["overlap_m"] == OVERLAP and rec["outside_module_m"] <= UNION_TOLERANCE
     assert abs(rec["clearance_lower_bound_m"] - g.params.clearance) <= 1e-6
@@ -52,11 +51,10 @@ def test_pieces_are_checked_as_the_files_store_them(tmp_path):
     """The pieces the check proved are the float32-millimetre ones the MJCF and USD hold
     (what an STL of each reads back as), each a closed convex solid; no file is written."""
     g = build_module(CORNERS["32-gon"])
-    ctx = ExportContext(tmp_path, g, {})
-    rec = collision_pieces(ctx, insertion_travel(g))
-    assert rec["pieces"] == len(ctx.pieces) == len(exact_pieces(g))
+    kept, rec = collision_pieces(g, insertion_travel(g))
+    assert rec["pieces"] == len(kept) == len(exact_pieces(g))
     assert not list(tmp_path.iterdir())
-    for piece, exact in zip(ctx.pieces, exact_pieces(g), strict=True):
+    for piece, exact in zip(kept, exact_pieces(g), strict=True):
         back = parse_stl_mm(stl_bytes(exact))
         assert np.array_equal(piece.vertices, back.vertices)
         assert np.array_equal(piece.faces, back.faces)

@@ -11,7 +11,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("assetgen", "sim", "rl", "preview", "benchmarks")
-STAGES = ("core", "params", "geometry", "checks", "collision", "formats", "dataset", "physics")
+STAGES = (
+    "core", "params", "geometry", "families", "checks", "collision", "formats", "dataset",
+    "physics",
+)  # fmt: skip
+"""assetgen's stages in data-flow order: a stage imports only itself and the stages before
+it."""
 
 
 def _module_name(path: Path) -> str:
@@ -110,6 +115,32 @@ def test_data_flows_one_way():
     assert all(t.startswith(allowed) for t in from_assetgen), from_assetgen
     assert not {t for t in _imports_of("rl") if t.startswith(("sim", "preview"))}
     assert not {t for t in _imports_of("assetgen.core") if not t.startswith("assetgen.core")}
+
+
+def _stage(module: str) -> int | None:
+    parts = module.split(".")
+    if parts[0] != "assetgen" or len(parts) < 2 or parts[1] not in STAGES:
+        return None
+    return STAGES.index(parts[1])
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Imports (at the top or inside functions) from a stage of assetgen to a later one."""
+    return [
+        f"{m} -> {t}"
+        for m, targets in sorted(graph.items())
+        for t in sorted(targets)
+        if _stage(m) is not None and _stage(t) is not None and _stage(t) > _stage(m)
+    ]
+
+
+def test_stages_only_look_down():
+    assert upward_imports(import_graph()) == []
+
+
+def test_upward_imports_are_found():
+    graph = {"assetgen.geometry.polytope": {"assetgen.collision.cell_meshes", "numpy"}}
+    assert upward_imports(graph) == ["assetgen.geometry.polytope -> assetgen.collision.cell_meshes"]
 
 
 @pytest.mark.parametrize("stage", STAGES)

@@ -16,7 +16,6 @@ from assetgen.collision.exact import OVERLAP, exact_decomposition, exact_pieces,
 from assetgen.collision.pieces import UNION_TOLERANCE, check_union, collision_pieces
 from assetgen.core.inline_mesh import stored
 from assetgen.core.mesh import Mesh
-from assetgen.formats.context import ExportContext
 from assetgen.geometry.solids import build_module, insertion_travel
 from assetgen.params.sampler import SamplerConfig, sample_params
 
@@ -191,7 +190,7 @@ def test_far_plate_seams_overlap(module):
 
 def test_pieces_keep_the_clearance(module, tmp_path):
     g, *_ = module
-    rec = collision_pieces(ExportContext(tmp_path, g, {}), insertion_travel(g))
+    _, rec = collision_pieces(g, insertion_travel(g))
     c = g.params.clearance
     assert c - 1e-6 <= rec["clearance_lower_bound_m"] <= c + 1e-6
     assert c - 1e-6 <= rec["insertion_lower_bound_m"] <= c + 1e-6

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import HalfspaceIntersection
 
-from assetgen.collision.triple_vertices import polytope_vertices_batch
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 
 def test_cube():

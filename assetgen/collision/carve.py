@@ -27,7 +27,7 @@ tile it, and their volumes add up to its volume (tested).
 
 Each F_j is contained in the half-space beyond plane j: these cells refine "one outward
 plane per hole, clipped to the solid" into cells that do not overlap. A cell's vertices come
-from enumerating plane triples (assetgen.collision.triple_vertices), redundant planes are
+from enumerating plane triples (assetgen.geometry.triple_vertices), redundant planes are
 dropped between holes (a facet of a bounded polytope has at least three vertices), and
 assetgen.collision.cell_meshes turns the cells into meshes. Hand-written: no
 library decomposes exactly (CoACD approximates, and eats into a sub-millimetre gap).
@@ -41,8 +41,8 @@ import numpy as np
 
 from assetgen.collision.cell_meshes import cell_meshes
 from assetgen.collision.exact import OVERLAP
-from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 ON_PLANE = 1e-9
 """A vertex within this distance (m) of a plane lies on it (redundant-plane pruning)."""

@@ -2,7 +2,7 @@
 
 The decompositions (assetgen.collision.exact for one convex hole, assetgen.collision.carve
 for a union of convex holes) describe each piece as a small system of half-spaces
-{n . x <= d}. Enumerating plane triples (assetgen.collision.triple_vertices) gives each cell's
+{n . x <= d}. Enumerating plane triples (assetgen.geometry.triple_vertices) gives each cell's
 vertices and, for each, the planes it lies on. A face of the cell is then the set of
 vertices on one of its planes: a convex polygon, ordered around its centre, fanned into
 triangles and wound counter-clockwise about the plane's normal, which points outward.
@@ -37,8 +37,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from assetgen.collision.triple_vertices import Stacked, enumerate_vertices
 from assetgen.core.mesh import Mesh, cross3
+from assetgen.geometry.triple_vertices import Stacked, enumerate_vertices
 
 SNAP = 2e-8
 """Grid (m) piece vertices are snapped to: far below the 1 um clearance tolerance, above

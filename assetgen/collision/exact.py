@@ -24,7 +24,7 @@ piece that reaches past its neighbours' cells may cross another face's mitred ou
 it gets that plane too (checked on its vertices).
 
 Cells' vertices come from enumerating plane triples in one compiled loop over all of a
-module's cells (assetgen.collision.triple_vertices: 6 - 71 planes a cell, ~0.9 ms a module in
+module's cells (assetgen.geometry.triple_vertices: 6 - 71 planes a cell, ~0.9 ms a module in
 all), and their faces from the planes each vertex lies on (assetgen.collision.cell_meshes).
 """
 
@@ -33,11 +33,11 @@ from __future__ import annotations
 import numpy as np
 
 from assetgen.collision.cell_meshes import aligned_cell_meshes, largest_residuals
-from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh
 from assetgen.core.portable import norm
 from assetgen.geometry.polytope import offset_planes, transform_planes
 from assetgen.geometry.solids import ModuleGeometry
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 OVERLAP = 0.002
 """How far (m) each piece reaches past a seam it shares with another piece, into that

@@ -34,8 +34,7 @@ from assetgen.collision.separating_planes import (
 )
 from assetgen.core.inline_mesh import stored
 from assetgen.core.mesh import Mesh, cross3
-from assetgen.core.timing import step
-from assetgen.formats.context import ExportContext
+from assetgen.core.timing import StepTimes, step
 from assetgen.geometry.solids import ModuleGeometry
 
 DECOMPOSERS: dict[str, Callable[[ModuleGeometry], list[Mesh]]] = {
@@ -179,31 +178,33 @@ def check_union(
     return {"outside_module_m": float(outside.max())}
 
 
-def collision_pieces(ctx: ExportContext, travel: float, method: str = "exact") -> dict:
-    """Decompose the module, round the pieces as the files store them and check those; set
-    ctx.pieces to them (the MJCF and USD writers store them, and the MJCF writer checks that
-    they read back unchanged) and return a record for module.json."""
+def collision_pieces(
+    geom: ModuleGeometry, travel: float, method: str = "exact", times: StepTimes | None = None
+) -> tuple[list[Mesh], dict]:
+    """Decompose the module, round the pieces as the files store them and check those.
+    Returns the stored pieces (the MJCF and USD writers store them, and the MJCF writer
+    checks that they read back unchanged) and a record for module.json; `times` gets the
+    steps' wall times."""
     if method not in DECOMPOSERS:
         raise ValueError(f"unknown decomposition {method!r}; valid: {sorted(DECOMPOSERS)}")
-    geom = ctx.geometry
     systems = None
-    with step(ctx.times, "collision: decompose"):
+    with step(times, "collision: decompose"):
         if method == "exact":
             pieces, systems = exact_decomposition(geom)
         else:
             pieces = DECOMPOSERS[method](geom)
-    with step(ctx.times, "collision: re-check"):
-        ctx.pieces = stored(pieces)
-        gaps = check_pieces(ctx.pieces, geom.peg, geom, travel)
+    with step(times, "collision: re-check"):
+        kept = stored(pieces)
+        gaps = check_pieces(kept, geom.peg, geom, travel)
     record = {
         "method": method,
         "pieces": len(pieces),
         "volume_ratio": _volume(pieces) / geom.module_volume,
     }
     if systems is not None:
-        with step(ctx.times, "collision: union"):
-            record |= {"overlap_m": OVERLAP, **check_union(ctx.pieces, systems, geom)}
-    return {**record, **gaps}
+        with step(times, "collision: union"):
+            record |= {"overlap_m": OVERLAP, **check_union(kept, systems, geom)}
+    return kept, {**record, **gaps}
 
 
 def _volume(pieces: Sequence[Mesh]) -> float:

@@ -70,7 +70,7 @@ def _check_assembly(folder: Path, meta: dict) -> str | None:
     the MJCF holds them, and the steps and poses rebuilt from the stored parameters."""
     from assetgen.checks.step_checks import check_parts, check_steps
     from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
-    from assetgen.families.registry import family
+    from assetgen.dataset.families import family
 
     try:
         rebuild = family(meta["family"]).rebuild

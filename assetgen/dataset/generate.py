@@ -54,8 +54,8 @@ abruptly (os._exit) once, mid-module, if FILE does not exist yet (it creates it 
 
 
 def _worker(args: tuple[int, dict, str, tuple[str, ...], str]) -> Result:
+    from assetgen.dataset.families import family
     from assetgen.dataset.module_writer import ModuleFailure
-    from assetgen.families.registry import family
 
     seed, config, modules_dir, formats, family_name = args
     fam = family(family_name)
@@ -214,7 +214,7 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
     tmp = manifest.with_name("manifest.jsonl.tmp")
     tmp.write_text("".join(json.dumps(records[m], sort_keys=True) + "\n" for m in sorted(records)))
     os.replace(tmp, manifest)
-    from assetgen.families.registry import family
+    from assetgen.dataset.families import family
 
     gaps = [g for r in records.values() for g in family(spec.family).gaps(r)]
     summary = RunSummary(

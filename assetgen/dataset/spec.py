@@ -10,7 +10,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from assetgen.families.registry import DEFAULT_FAMILY, family
+from assetgen.dataset.families import DEFAULT_FAMILY, family
 from assetgen.params.module_params import ParamError
 from assetgen.params.sampler import SamplerConfig
 
@@ -39,7 +39,7 @@ class DatasetSpec:
     """Simulation formats written besides STL and 3MF (peg-in-hole; an assembly writes its
     MJCF and 3MF always)."""
     family: str = DEFAULT_FAMILY
-    """What the modules are (assetgen.families.registry): `peg-in-hole` or `profile-bolt`."""
+    """What the modules are (assetgen.dataset.families): `peg-in-hole` or `profile-bolt`."""
 
     def validate(self) -> DatasetSpec:
         if not isinstance(self.count, int) or self.count < 1:

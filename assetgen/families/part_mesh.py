@@ -11,9 +11,9 @@ from __future__ import annotations
 import manifold3d as mf
 import numpy as np
 
-from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.mesh import Mesh
 from assetgen.families.parts import Part
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 MARGIN = 0.01
 """m a hole is kept beyond the part's solids when clipped (enough to cut cleanly through)."""

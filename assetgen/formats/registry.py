@@ -20,7 +20,8 @@ USD_FILE = "peg_in_hole.usda"
 
 
 def _collision(ctx: ExportContext) -> None:
-    ctx.record["collision"] = collision_pieces(ctx, insertion_travel(ctx.geometry))
+    travel = insertion_travel(ctx.geometry)
+    ctx.pieces, ctx.record["collision"] = collision_pieces(ctx.geometry, travel, times=ctx.times)
 
 
 def _usd(ctx: ExportContext) -> None:

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from assetgen.collision.triple_vertices import polytope_vertices_batch
 from assetgen.core.portable import dot, matmul
+from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 
 def transform_planes(planes: np.ndarray, matrix: np.ndarray) -> np.ndarray:
@@ -49,7 +49,7 @@ def interior_point(planes: np.ndarray, guess: np.ndarray | None = None) -> np.nd
 
 def polytope_vertices(planes: np.ndarray) -> np.ndarray:
     """Vertices (m, 3) of the bounded polytope {n . x <= d} (unit normals), by enumerating
-    plane triples (assetgen.collision.triple_vertices); a vertex where more than three planes
+    plane triples (assetgen.geometry.triple_vertices); a vertex where more than three planes
     meet comes once per triple through it."""
     (vertices,) = polytope_vertices_batch([planes])
     return vertices
