@@ -49,13 +49,28 @@ def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
     return parse(ALGOS[algo], items)
 
 
+FLAGS = {
+    "noise_scale": "--noise-scale",
+    "num_envs": "--envs",
+    "keep_physics=True": "--keep-dataset-physics",
+}
+"""Library parameter names as the command line spells them, for error messages."""
+
+
+def _flags(message: str) -> str:
+    """A library error in the command line's words: `noise_scale = 3` -> `--noise-scale 3`."""
+    for name, flag in FLAGS.items():
+        message = message.replace(f"{name} = ", f"{flag} ").replace(name, flag)
+    return message
+
+
 def _error(message: str) -> int:
     """Print a one-line error for the user on stderr; exit code 2."""
     from rich.console import Console
     from rich.markup import escape
 
     err = Console(stderr=True)
-    err.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+    err.print(f"[bold red]error:[/] {escape(_flags(message))}", highlight=False, soft_wrap=True)
     return 2
 
 
@@ -115,8 +130,7 @@ def add_train_parser(
         "--threads",
         type=int,
         help="torch CPU threads (default: half the cores, at least 1: the simulator's C "
-        "threads need the rest, and oversubscribed torch threads spin; a SAC gradient step "
-        "on the 2-core machine under load took 87 ms with 1 thread, 406 ms with 2)",
+        "threads need the rest, and oversubscribed torch threads spin)",
     )
     p.add_argument(
         "--demos",

@@ -59,9 +59,9 @@ PRESETS: dict[str, dict[str, Setup]] = {
         ),
     },
     "cpu": {
-        # sized on a 2-core CPU (about 1-4 k env steps/s for PPO, 0.5-1.5 k for SAC): the
-        # curriculum spans about half of what a 60-minute run reaches, so the second half
-        # trains on the full spawn ranges it is evaluated on
+        # sized on a 2-core CPU (docs/benchmarks.md): the curriculum spans about half of
+        # what a 60-minute run reaches, so the second half trains on the full spawn ranges
+        # it is evaluated on
         "ppo": Setup(
             PPOConfig(
                 hidden=(256, 256),
@@ -98,18 +98,14 @@ PRESETS: dict[str, dict[str, Setup]] = {
             checkpoint_steps=250_000,
             curriculum_steps=1_000_000,
         ),
-        # DreamerV3 on the 2-core machine (1 torch thread, two runs at a time), measured:
-        # a gradient step of 16 x 32 took 1.25 s at units 256 and 0.42-0.50 s at units 128
-        # (reinforce gradients, one pass of each network per imagined state), so gradient
-        # steps take the hour; train ratio 8 (one gradient step per 64 env steps) then makes
-        # ~140 env steps/s: ~500 k env steps and ~7,000 gradient steps in 60 min. Four
+        # DreamerV3 on a 2-core CPU: gradient steps take the hour (units 128 halve a step's
+        # time against 256), and train ratio 8 is one gradient step per 64 env steps. Four
         # changes from the official defaults, each measured on peg-in-hole (docs/benchmarks):
         # observations in millimetres (obs_scale: in metres the world model ignores a 1 mm
         # error), rewards x 100 (reward_scale: returns of at most 1 leave the return
         # normaliser at its floor), learning rates 3e-4 / 1e-4 / 1e-4 (a hundredth of the
         # official gradient steps), reinforce gradients (the official code's current
-        # choice; 0.7 of backprop's step time). The replay of 1e6 steps takes 102 MB
-        # (saved in checkpoints)
+        # choice, cheaper than backprop). The replay of 1e6 steps is saved in checkpoints
         "dreamer": Setup(
             DreamerConfig(
                 units=128,

@@ -150,8 +150,7 @@ def check_physics(root: Path | str, keep: bool = False):
         f"{root} was written for physics version {version} ({describe(physics)}); this "
         f"simulator runs version {PHYSICS_VERSION}: regenerate it (`assetgen sample --dataset "
         f"{name} --overwrite`, or `--out {root} --overwrite` with its --n/--seed), or keep the "
-        "physics its files carry (keep_physics=True; `--keep-dataset-physics` on the command "
-        "line)"
+        "physics its files carry (keep_physics=True)"
     )
 
 

@@ -4,19 +4,11 @@ Envs are grouped in shards: `shard_size` modules and their pegs side by side in 
 (each peg collides only with its own module, through its own collision bit), each shard
 stepped `substeps` physics steps per call with no Python in between, the shards spread over
 C threads by `mujoco.rollout`. Friction and restitution are randomised per env in its
-shard's model. Measured on the 2-core machine, 1024 envs, env-steps per CPU-second
-(best of 3, interleaved; wall-clock figures swing 2x with the neighbours' load):
-
-                                        free flight   pressed on the plate   scripted expert
-    rollout, shards of 8                    66 k            9.6 k                16.5 k
-    rollout, shards of 16                   51 k            8.4 k                15.1 k
-    rollout, one model per env              41 k           10.3 k                14.8 k
-    thread pool of mj_step, one per env     33 k            9.6 k                  -
-
-Shards of 8 win where most time goes (free flight: per-step overhead is shared by 8 pegs),
-and lose 6 % when every peg is in contact; a thread pool of `mj_step` calls is bound by the
-GIL between the short C calls. The price of sharing: MuJoCo stops stepping a model after a
-warning, so an unstable env stalls its shard-mates for that step (they are reported too).
+shard's model. Why shards (measured: docs/benchmarks.md, simulator): in free flight the
+per-step overhead is shared by the pegs of a shard, and a thread pool of `mj_step` calls is
+bound by the GIL between the short C calls. The price of sharing: MuJoCo stops stepping a
+model after a warning, so an unstable env stalls its shard-mates for that step (they are
+reported too).
 
 `rollout` reuses one MjData per thread across models, so every MjData array sized by the
 model must be large enough for each of them. Our models differ only in geometry counts

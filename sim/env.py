@@ -491,7 +491,7 @@ def eval_config(noise_scale: float = 1.0) -> TaskConfig:
     from sim.config import EVAL_CONFIG
 
     if not (math.isfinite(noise_scale) and noise_scale >= 0):
-        raise ValueError(f"--noise-scale {noise_scale}: give a factor >= 0 (1: the paper's noise)")
+        raise ValueError(f"noise_scale = {noise_scale}: give a factor >= 0 (1: the paper's noise)")
     c = EVAL_CONFIG
     return replace(
         c,
@@ -530,8 +530,8 @@ def make_eval_env(
     modules = load_dataset(root, ids)
     if num_envs is not None and num_envs < len(modules):
         raise ValueError(
-            f"--envs {num_envs} is less than the dataset's {len(modules)} modules: a "
-            "checkpoint is evaluated with one env per module; raise --envs"
+            f"num_envs = {num_envs} is less than the dataset's {len(modules)} modules: a "
+            "checkpoint is evaluated with one env per module; raise num_envs"
         )
     env = PegInHoleVecEnv(modules, len(modules), config, assignment_seed=seed)
     ds = Dataset(root)

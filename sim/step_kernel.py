@@ -1,16 +1,12 @@
 """The per-step arithmetic of the env and of BatchSim, compiled (numba): one loop over the
 envs per stage instead of about a hundred numpy calls on (num_envs, ...) arrays.
 
-At 1024 envs on the 2-core machine the env's own work runs on one thread while the other
-core idles, so every microsecond of it counts against the physics (6-8 ms a step). On
-numpy (sim/step_numpy.py, the same functions) the env keeps 0.80 of raw `mujoco.rollout`
-throughput, compiled 0.87-0.91 (`assetgen bench sim --kernels numpy|numba`, one sitting).
-The main thread's CPU time per step (time.thread_time, about 0.3 ms of it spent in the
-rollout call itself) is 1.07-1.27 ms compiled, 1.46-1.78 ms on numpy. What is left is mostly the
-noise draws (12,288 float32 normals, ~0.17 ms), kept on numpy's Generator so that seeded
-streams and exact resume are the same under both. Splitting the batch to score one part while the
-next steps (the rollout releases the GIL) gains nothing measurable on 2 cores, so the
-step stays serial. Written by hand because no library fuses it: MuJoCo's sensors could
+The env's own work runs on one thread between the rollout calls, so every microsecond of it
+counts against the physics (`assetgen bench sim --kernels numpy|numba` compares the two
+forms; docs/benchmarks.md). The noise draws stay on numpy's Generator, so that seeded
+streams and exact resume are the same under both. Splitting the batch to score one part
+while the next steps (the rollout releases the GIL) gained nothing measurable on 2 cores,
+so the step stays serial. Written by hand because no library fuses it: MuJoCo's sensors could
 give the clean observation, but not the estimation noise, the quaternion form of the seat
 distance or the failure test.
 

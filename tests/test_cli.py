@@ -195,7 +195,8 @@ def test_train_then_evaluate_the_checkpoint_on_every_module(tiny_dataset, tmp_pa
     # one env per module: 6 modules x 2 attempts, whatever the training batch (2 envs)
     assert res["episodes"] == 12 and len(res["per_env_success_rate"]) == 6
     p = run(*args, "--envs", "3")
-    assert p.returncode != 0 and "less than the dataset's 6 modules" in p.stdout + p.stderr
+    out = p.stdout + p.stderr  # the library's num_envs, in the command line's words
+    assert p.returncode != 0 and "--envs 3 is less than the dataset's 6 modules" in out
 
 
 def test_eval_missing_dataset(tmp_path):

@@ -28,9 +28,8 @@ them as they are (unknown schema names are kept in the list, just not reported a
 
 Speed: the stage is written as .usda text from a template, with every number array formatted
 by USD itself (str() of a numpy-backed Vt array: the same shortest round-trip digits Sdf
-writes), all meshes in one batch. Authoring through the Sdf API costs about 7 µs per spec
-(~16 ms per write for a module with 69 pieces); the template needs about 0.7 ms for a typical
-module (11 - 17 pieces) and 2.5 ms with 138 pieces. The text is canonical: Sdf reads it back
+writes), all meshes in one batch: authoring spec by spec through the Sdf API was many times
+slower for a module of many pieces (docs/benchmarks.md). The text is canonical: Sdf reads it back
 and writes the same bytes (the tests check this), so it is the file Sdf would write itself.
 """
 
