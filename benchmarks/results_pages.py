@@ -1,0 +1,115 @@
+"""Write the result pages of docs/results/ from the evaluation files the repository tracks.
+
+    python -m benchmarks.results_pages            # every page
+    python -m benchmarks.results_pages --check    # exit 1 when a page is stale
+
+Each page is `assetgen report` of its inputs (rl.report.write_report): table.md, the
+learning curves and the time-to-success plot, report.json. The inputs are the shipped
+policies (checkpoints/), the further seeds' configs, metrics and evaluations
+(docs/results/runs/) and the built-in agents' evaluations (docs/results/baselines/); every one
+of them is an evaluation on the current physics, which tests/test_results_pages.py checks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "docs" / "results"
+
+
+@dataclass(frozen=True)
+class Page:
+    """One results page: docs/results/<name>/ made from these inputs."""
+
+    name: str
+    """Folder under docs/results/."""
+    runs: tuple[str, ...]
+    """Run folders (config.json, metrics.csv, eval_*.json), relative to the repository root."""
+    baselines: tuple[str, ...] = ()
+    """Built-in agents' evaluation files or folders of them, relative to the root."""
+    readme: bool = False
+    """Also write the table into README.md (between rl.report's table markers)."""
+
+    def run_paths(self) -> list[Path]:
+        return [ROOT / r for r in self.runs]
+
+    def baseline_paths(self) -> list[Path]:
+        return [ROOT / b for b in self.baselines]
+
+
+def shipped_runs() -> tuple[str, ...]:
+    return tuple(
+        str(p.parent.relative_to(ROOT))
+        for p in sorted((ROOT / "checkpoints").glob("*/checkpoint.safetensors"))
+    )
+
+
+PAGES: tuple[Page, ...] = (
+    Page(
+        "taught",
+        runs=(
+            "checkpoints/sac-direct-bc",
+            "docs/results/runs/sac-direct-bc-s1",
+            "docs/results/runs/sac-direct-bc-s2",
+        ),
+        baselines=("docs/results/baselines",),
+        readme=True,
+    ),
+    Page("shipped", runs=shipped_runs()),
+)
+"""taught: SAC taught by the direct expert, three seeds, next to the built-in agents and
+the paper (the README's table). shipped: every policy in checkpoints/."""
+
+
+def page_table(page: Page) -> str:
+    """The markdown table the page's inputs give now."""
+    from rl.report import load_baselines, load_run, markdown_table, summarise
+
+    base, _ = load_baselines(page.baseline_paths())
+    return markdown_table(summarise([load_run(p) for p in page.run_paths()], base))
+
+
+def readme_table() -> str:
+    """The table between the markers in README.md ('' without them)."""
+    import re
+
+    from rl.report import TABLE_BEGIN, TABLE_END
+
+    text = (ROOT / "README.md").read_text()
+    m = re.search(re.escape(TABLE_BEGIN) + r"\n(.*?)" + re.escape(TABLE_END), text, re.S)
+    return m.group(1).strip() if m else ""
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="only compare; exit 1 if stale")
+    args = ap.parse_args(argv)
+    from rl.report import TABLE_BEGIN, TABLE_END, replace_table, write_report
+
+    stale = []
+    for page in PAGES:
+        out = RESULTS / page.name
+        if args.check:
+            table = out / "table.md"
+            if not table.exists() or table.read_text().strip() != page_table(page).strip():
+                stale.append(page.name)
+            if page.readme and readme_table() != page_table(page).strip():
+                stale.append("README.md")
+            continue
+        write_report(page.run_paths(), page.baseline_paths(), out)
+        print(f"wrote {out.relative_to(ROOT)}/")
+        if page.readme:
+            replace_table(ROOT / "README.md", page_table(page))
+            print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
+    if stale:
+        print(f"stale: {', '.join(stale)}; run python -m benchmarks.results_pages", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,42 @@
+"""docs/results/ is what `python -m benchmarks.results_pages` makes of the tracked evaluation
+files, and every figure on it was measured on the current physics."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from assetgen.core.mujoco_config import PHYSICS_VERSION
+from benchmarks.results_pages import PAGES, RESULTS, ROOT, page_table, readme_table
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_page_is_generated_from_its_files(page) -> None:
+    table = RESULTS / page.name / "table.md"
+    assert table.exists(), f"{table} missing: run python -m benchmarks.results_pages"
+    assert table.read_text().strip() == page_table(page).strip(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_page_inputs_are_on_the_current_physics(page) -> None:
+    files = [f for r in page.run_paths() for f in sorted(r.glob("eval_*.json"))]
+    for b in page.baseline_paths():
+        files += sorted(b.glob("*.json")) if b.is_dir() else [b]
+    assert files, f"page {page.name} has no evaluation file"
+    for f in files:
+        doc = json.loads(f.read_text())
+        assert doc.get("physics_version") == PHYSICS_VERSION, (
+            f"{f.relative_to(ROOT)} was measured on physics version "
+            f"{doc.get('physics_version', 1)}, not {PHYSICS_VERSION}: evaluate it again"
+        )
+        assert doc["attempts"] == 10, f"{f.relative_to(ROOT)}: not the paper's 10 attempts"
+
+
+def test_readme_table_is_its_page() -> None:
+    (page,) = [p for p in PAGES if p.readme]
+    assert readme_table() == page_table(page).strip(), (
+        "README.md's results table is stale: run python -m benchmarks.results_pages"
+    )
