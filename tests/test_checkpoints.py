@@ -1,17 +1,16 @@
-"""The policies shipped in checkpoints/: each loads, acts and evaluates, and the README's table
-of shipped policies is what `assetgen report` computes from their evaluation files."""
+"""The policies shipped in checkpoints/: each loads, acts and evaluates, and its evaluation
+files are of the real splits, on the current physics (their table: docs/results/shipped/,
+tests/test_results_pages.py)."""
 
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from rl.report import TABLE_BEGIN as BEGIN
-from rl.report import TABLE_END as END
+from assetgen.core.mujoco_config import PHYSICS_VERSION
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted(p.parent for p in (ROOT / "checkpoints").glob("*/checkpoint.safetensors"))
@@ -50,17 +49,5 @@ def test_shipped_policy_evaluates(folder: Path, tmp_path: Path) -> None:
         assert doc["control_dt"] == 0.02 and len(doc["dataset_hash"]) == 64, f
         assert doc["dataset"] in ("train", "test", "test_c05", "test_c025"), f
         assert doc["noise_scale"] == 1.0 or f"noise{doc['noise_scale']:g}" in f.stem, f
+        assert doc.get("physics_version") == PHYSICS_VERSION, f"{f}: other physics"
     assert {"eval_test.json"} <= {f.name for f in evals}, f"{folder}: no test-split evaluation"
-
-
-def test_readme_table_is_generated_from_the_shipped_files() -> None:
-    from rl.report import load_run, markdown_table, summarise
-
-    text = (ROOT / "README.md").read_text()
-    m = re.search(re.escape(BEGIN) + r"\n(.*?)" + re.escape(END), text, re.S)
-    assert m, "README.md lacks the shipped-policies table markers"
-    table = markdown_table(summarise([load_run(p) for p in SHIPPED], []))
-    assert m.group(1).strip() == table.strip(), (
-        "README's shipped table is stale: regenerate it with "
-        "`assetgen report checkpoints/* --out report/shipped --readme README.md`"
-    )
