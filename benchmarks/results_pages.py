@@ -93,17 +93,18 @@ def main(argv: list[str] | None = None) -> int:
     stale = []
     for page in PAGES:
         out = RESULTS / page.name
+        table = out / "table.md"
         if args.check:
-            table = out / "table.md"
-            if not table.exists() or table.read_text().strip() != page_table(page).strip():
+            now = page_table(page).strip()
+            if not table.exists() or table.read_text().strip() != now:
                 stale.append(page.name)
-            if page.readme and readme_table() != page_table(page).strip():
+            if page.readme and readme_table() != now:
                 stale.append("README.md")
             continue
         write_report(page.run_paths(), page.baseline_paths(), out)
         print(f"wrote {out.relative_to(ROOT)}/")
         if page.readme:
-            replace_table(ROOT / "README.md", page_table(page))
+            replace_table(ROOT / "README.md", table.read_text())
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
     if stale:
         print(f"stale: {', '.join(stale)}; run python -m benchmarks.results_pages", file=sys.stderr)
