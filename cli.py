@@ -393,13 +393,6 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument(
         "--shard-size", type=int, default=None, help="sim: envs per MuJoCo model (default 8)"
     )
-    b.add_argument(
-        "--kernels",
-        choices=["auto", "numba", "numpy"],
-        default="auto",
-        help="the env's per-step arithmetic (sim): compiled (numba; auto uses it when "
-        "installed) or numpy, to compare",
-    )
     b.add_argument("--workers", type=int, default=None)
     b.add_argument(
         "--json",

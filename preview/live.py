@@ -218,8 +218,7 @@ class LivePolicy:
                 raise PreviewError(f"cannot simulate this module: {e}") from e
             if self.env is not None:
                 self.env.close()
-            # One thread: one env; numpy kernels: nothing to compile before the first step.
-            env = PegInHoleVecEnv([asset], 1, EVAL_CONFIG, nthread=1, kernels="numpy")
+            env = PegInHoleVecEnv([asset], 1, EVAL_CONFIG, nthread=1)  # one env, one thread
             self.base_env = env
             if self.stack > 1:
                 from rl.stack import StackObs

@@ -7,10 +7,10 @@
 
 Files: config.py (the task's numbers), assets.py (module.json + STL only), scene.py (MJCF
 model of one or more envs), batch.py (mujoco.rollout over per-env models), task.py
-(observation, reward, success, failure, spawn), step_impl.py / step_kernel.py /
-step_numpy.py (the per-step arithmetic, numba or numpy), env.py (the vector env), expert.py (a
-scripted expert), recording.py (episodes for the preview), bench.py (throughput),
-gym_adapter.py / torch_adapter.py (gymnasium and torch views).
+(observation, reward, success, failure, spawn), step_kernel.py (the per-step arithmetic,
+compiled), env.py (the vector env), expert.py (a scripted expert), recording.py (episodes
+for the preview), bench.py (throughput), gym_adapter.py / torch_adapter.py (gymnasium and
+torch views).
 """
 
 from sim.assets import AssetError, load_dataset, load_module

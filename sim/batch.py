@@ -26,10 +26,10 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from sim import step_kernel as K
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
 from sim.scene import build_model, contact_solref
-from sim.step_impl import kernels as step_kernels
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # Counts that size arrays of mjData: the capacity model's must be at least each model's.
@@ -94,10 +94,8 @@ class BatchSim:
         nthread: int | None = None,
         shard_size: int = 8,
         spare_assets: list[ModuleAsset] | None = None,
-        kernels: str = "auto",
     ) -> None:
         self.task = task
-        self._k = step_kernels(kernels)
         self.num_envs = n = len(env_assets)
         p = task.physics
         s_count, k = shard_layout(n, shard_size)
@@ -185,7 +183,8 @@ class BatchSim:
         # first-substep controls laid end to end (phantom slots, at the end, stay zero)
         self._ctrl0 = np.zeros((s_count, 6 * k))
 
-        self._check_params = np.array([p.substeps * p.timestep, p.timestep, p.runaway_speed])
+        self._layout = K.Layout(flat=self._flat, offset=self._offset, shard_of=self.shard_of)
+        self._checks = K.Checks.of(p)
 
     # ------------------------------------------------------------------ layout
 
@@ -274,9 +273,9 @@ class BatchSim:
         after a warning (seen as a time that did not advance; every env of it is flagged,
         as none of them moved), or a runaway peg (faster than `runaway_speed`).
         """
-        # the layout work (scatter, gather, checks) is compiled where numba is installed
-        # (sim.step_impl): on numpy it takes 0.15-0.3 ms a step at 1024 envs on one core
-        self._k.scatter(self.state, self._offset, self._flat, velocity, self._ss_flat, self._ctrl)
+        # the layout work (scatter, gather, checks) is compiled: it runs on one thread
+        # between the rollout calls
+        K.scatter(self.state, self._layout, velocity, self._ss_flat, self._ctrl)
         t0 = self.shard_state[:, 0].copy()
         self._rollout.rollout(
             self.models,
@@ -289,10 +288,7 @@ class BatchSim:
         )
         self.shard_state[:] = self._out[:, -1]
         unstable = np.empty(self.num_envs, dtype=bool)
-        self._k.gather(
-            self._ss_flat, self._flat, self._offset, t0, self.shard_of, self._check_params,
-            self.state, unstable,
-        )  # fmt: skip
+        K.gather(self._ss_flat, self._layout, t0, self._checks, self.state, unstable)
         return unstable
 
     def shard_control(self, velocity: np.ndarray) -> np.ndarray:

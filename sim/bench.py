@@ -2,7 +2,7 @@
 
 Wiring for the CLI: `bench_main(args)` for
     assetgen bench sim [--envs 1024] [--steps 200] [--dataset test] [--threads N]
-                       [--kernels auto|numba|numpy] [--json]
+                       [--json]
 """
 
 from __future__ import annotations
@@ -29,13 +29,11 @@ def bench_sim(
     shard_size: int = 8,
     rounds: int = 10,
     seed: int = 0,
-    kernels: str = "auto",
 ) -> dict:
     """Env steps/s with random actions at `envs` envs next to raw `mujoco.rollout` steps/s
     on the same models for the same physics steps (no env layer: no observation, reward,
     noise or reset), taken in `rounds` interleaved rounds (a busy neighbour hits both the
-    same). Each raw round starts from the env's current states. `kernels`: the env's
-    per-step arithmetic (sim.step_impl: compiled or numpy). Returns env_steps_per_s,
+    same). Each raw round starts from the env's current states. Returns env_steps_per_s,
     rollout_steps_per_s (env-step equivalents), physics_steps_per_s, env_over_rollout, the
     same per CPU-second (*_per_cpu_s: all threads' time; steadier on a shared machine),
     and the setup."""
@@ -47,7 +45,6 @@ def bench_sim(
         nthread=nthread,
         assignment_seed=seed,
         shard_size=shard_size,
-        kernels=kernels,
     )
     build_s = time.perf_counter() - t0
     sim = env.sim
@@ -86,7 +83,6 @@ def bench_sim(
         "steps": per_round * rounds,
         "threads": sim.nthread,
         "shard_size": sim.shard_size,
-        "kernels": env.kernels,
         "modules": len(env.module_ids),
         "build_s": build_s,
         "env_steps_per_s": n / wall["env"],
@@ -109,7 +105,6 @@ def bench_main(args: argparse.Namespace) -> int:
         getattr(args, "envs", None) or 1024,
         getattr(args, "steps", None) or 200,
         nthread=getattr(args, "threads", None),
-        kernels=getattr(args, "kernels", None) or "auto",
         shard_size=getattr(args, "shard_size", None) or 8,
     )
     if getattr(args, "json", False):
@@ -118,7 +113,6 @@ def bench_main(args: argparse.Namespace) -> int:
     rows = [
         ("envs / modules / threads", f"{res['envs']} / {res['modules']} / {res['threads']}"),
         ("envs per model (shard)", str(res["shard_size"])),
-        ("per-step arithmetic", res["kernels"]),
         ("env steps/s (random actions)", f"{res['env_steps_per_s']:,.0f}"),
         ("raw rollout steps/s", f"{res['rollout_steps_per_s']:,.0f}"),
         ("physics steps/s", f"{res['physics_steps_per_s']:,.0f}"),

@@ -37,13 +37,12 @@ import numpy as np
 
 from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
+from sim import step_kernel as K
 from sim import task as T
 from sim.assets import ModuleAsset, check_physics, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
 from sim.scene import restitution_to_dampratio
-from sim.step_impl import kernels as step_kernels
-from sim.step_impl import score_params
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -81,12 +80,8 @@ class PegInHoleVecEnv:
         nthread: int | None = None,
         shard_size: int = 8,
         rotate_modules: bool = False,
-        kernels: str = "auto",
     ) -> None:
         self.cfg = (config or TaskConfig()).validate()
-        self._k = step_kernels(kernels)
-        self.kernels: str = self._k.NAME
-        """The per-step arithmetic in use: numba (compiled) or numpy; same results."""
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
             raise ValueError("no modules given: pass a dataset folder or a non-empty list")
@@ -115,7 +110,7 @@ class PegInHoleVecEnv:
             spare = [modules[k] for k in self._queue]
         self._first_assignment = (self.env_module.copy(), list(self._queue))
         """The modules' order at construction, which a seeded reset restores."""
-        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare, kernels)
+        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt
         self.protocol: dict[str, Any] = {}
         """How this env evaluates, for evaluation files (make_eval_env fills it)."""
@@ -163,7 +158,7 @@ class PegInHoleVecEnv:
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
-        self._score_params = score_params(cfg)
+        self._step_params = K.StepParams.of(cfg)
         self._no_noise = np.zeros((n, 6), dtype=np.float32)
 
     # ------------------------------------------------------------------ helpers
@@ -179,6 +174,7 @@ class PegInHoleVecEnv:
         self.peg_reach = self._mod["peg_reach"][rows]
         self.hole_radius = self._mod["hole_radius"][rows]
         self._frames = self._mod_frames[rows]
+        self._kframes = self._kernel_frames(self._frames, self.bottom)
         self._entrance_quat = self._mod_entrance_quat[rows]
         # Actions are velocities in the entrance frame. A Table I entrance is the module's
         # axes, so its actions pass as they are (bit for bit); an assembly step's entrance
@@ -200,7 +196,21 @@ class PegInHoleVecEnv:
             entrance, bottom = self.entrance.copy(), self.bottom.copy()
             entrance[self._local] = np.eye(4)
             bottom[self._local] = self.entrance_inv[self._local] @ self.bottom[self._local]
-            self._scored = (T.ObsFrames.of(entrance, bottom), bottom)
+            self._scored = self._kernel_frames(T.ObsFrames.of(entrance, bottom), bottom)
+
+    def _kernel_frames(self, frames: T.ObsFrames, bottom: np.ndarray) -> K.Frames:
+        """The per-env tables the step's kernels read, for observation frames `frames` and
+        bottom frames `bottom` (n, 4, 4)."""
+        return K.Frames(
+            rows=frames.rows,
+            origin=frames.origin_in,
+            bottom_pos=frames.bottom_pos,
+            bottom_quat_conj=frames.bottom_quat_conj,
+            bottom=bottom,
+            vertices=self.peg_vertices,
+            hole_radius=self.hole_radius,
+            reach=self.peg_reach,
+        )
 
     def _rotate(self, idx: np.ndarray) -> None:
         """Envs idx hand their modules to the back of the queue and take the front ones."""
@@ -228,11 +238,7 @@ class PegInHoleVecEnv:
         cfg = self.cfg
         e = T.pose_noise(self.rng, len(idx)) if cfg.noise else np.zeros((len(idx), 6), np.float32)
         out = np.empty((len(idx), T.OBS_DIM), dtype=np.float32)
-        f = self._frames
-        self._k.observe(
-            self.sim.state, idx, f.rows, f.origin_in, e, cfg.noise, cfg.obs_pos_noise,
-            cfg.obs_rot_noise, out,
-        )  # fmt: skip
+        K.observe(self.sim.state, idx, self._kframes, e, self._step_params, out)
         return out
 
     def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
@@ -335,7 +341,7 @@ class PegInHoleVecEnv:
         e = self.rng.standard_normal((2 * n, 6), dtype=np.float32) if cfg.noise else None
         act_e, noise = (e[:n], e[n:]) if e is not None else (self._no_noise, self._no_noise)
         velocity = np.empty((n, T.ACT_DIM))
-        self._k.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
+        K.command(actions, act_e, cfg.noise, self._act_scale, self._act_noise, velocity)
         if self._act_turn is not None:
             velocity[:, :3] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, :3])
             velocity[:, 3:] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, 3:])
@@ -346,19 +352,18 @@ class PegInHoleVecEnv:
         reward = np.empty(n)
         success = np.empty(n, dtype=bool)
         failure = np.empty(n, dtype=bool)
-        f, bottom, state = self._frames, self.bottom, self.sim.state
+        frames, state = self._kframes, self.sim.state
         if self._scored is not None:
-            f, bottom = self._scored
+            frames = self._scored
             state = state.copy()
             i, e = self._local, self.entrance[self._local]
             state[i, 1:4] = np.einsum("nji,nj->ni", e[:, :3, :3], state[i, 1:4] - e[:, :3, 3])
             state[i, 4:8] = quat_mul(quat_conj(self._entrance_quat[i]), state[i, 4:8])
-        self._k.score(
-            state, unstable, noise, cfg.noise, f.rows, f.origin_in, f.bottom_pos,
-            f.bottom_quat_conj, bottom, self.peg_vertices, self.hole_radius,
-            self.peg_reach, self._d0, self._c_prev, self._return, self._obs,
-            self._score_params, obs, reward, success, failure,
-        )  # fmt: skip
+        episode = K.Episode(
+            d0=self._d0, c_prev=self._c_prev, returns=self._return, last_obs=self._obs
+        )
+        out = K.Outcome(obs=obs, reward=reward, success=success, failure=failure)
+        K.score(state, unstable, noise, frames, episode, self._step_params, out)
         terminated = success | failure
         truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
         done = terminated | truncated

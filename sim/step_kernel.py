@@ -2,16 +2,17 @@
 envs per stage instead of about a hundred numpy calls on (num_envs, ...) arrays.
 
 The env's own work runs on one thread between the rollout calls, so every microsecond of it
-counts against the physics (`assetgen bench sim --kernels numpy|numba` compares the two
-forms; docs/benchmarks.md). The noise draws stay on numpy's Generator, so that seeded
-streams and exact resume are the same under both. Splitting the batch to score one part
-while the next steps (the rollout releases the GIL) gained nothing measurable on 2 cores,
-so the step stays serial. Written by hand because no library fuses it: MuJoCo's sensors could
-give the clean observation, but not the estimation noise, the quaternion form of the seat
-distance or the failure test.
+counts against the physics. The noise draws stay on numpy's Generator, so that seeded
+streams and exact resume do not depend on the compiled code. Splitting the batch to score
+one part while the next steps (the rollout releases the GIL) gained nothing measurable on 2
+cores, so the step stays serial. Written by hand because no library fuses it: MuJoCo's
+sensors could give the clean observation, but not the estimation noise, the quaternion form
+of the seat distance or the failure test.
 
-sim/step_numpy.py, built from the task functions of sim/task.py, is the reference:
-tests/test_sim_kernel.py holds the kernels to it on random batches that reach every branch.
+This is the only implementation: the task functions of sim/task.py define the same
+quantities on numpy arrays, and tests/test_sim_kernel.py holds the kernels to them on random
+batches that reach every branch. Inputs travel in named tuples (numba reads their fields by
+name), built by name from the configs, so no call depends on an order of arguments.
 
     command  actions -> commanded velocities (clip, scale, command noise)
     scatter  env states and velocities -> shard states and controls (BatchSim's layout)
@@ -26,12 +27,109 @@ Layouts (n envs): state (n, 14) = [time, pos (3), quat w x y z (4), qvel (6)] as
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-NAME = "numba"
-"""How sim.step_impl names this implementation."""
+from sim.config import PhysicsConfig, TaskConfig
+
+
+class StepParams(NamedTuple):
+    """The task's constants that score and observe read, taken by name from a TaskConfig
+    (see its fields)."""
+
+    dist_pos_weight: float
+    dist_rot_weight: float
+    success_radius: float
+    failure_depth: float
+    failure_reward: float
+    obs_pos_noise: float
+    obs_rot_noise: float
+    noise: bool
+
+    @classmethod
+    def of(cls, cfg: TaskConfig) -> StepParams:
+        # Python floats, whatever the config holds, so one compiled signature serves all
+        values = {f: float(getattr(cfg, f)) for f in cls._fields if f != "noise"}
+        return cls(noise=bool(cfg.noise), **values)
+
+
+class Frames(NamedTuple):
+    """Per-env constants of the module each env holds (n envs)."""
+
+    rows: np.ndarray
+    """(n, 6, 3) the observation frames' rows (task.ObsFrames.rows)."""
+    origin: np.ndarray
+    """(n, 6) the frames' origins in them (task.ObsFrames.origin_in)."""
+    bottom_pos: np.ndarray
+    """(n, 3) the seat's position (task.ObsFrames.bottom_pos)."""
+    bottom_quat_conj: np.ndarray
+    """(n, 4) the conjugate of the seat's orientation."""
+    bottom: np.ndarray
+    """(n, 4, 4) the hole's bottom frame (failure test)."""
+    vertices: np.ndarray
+    """(n, V, 3) the peg's vertices in the peg frame."""
+    hole_radius: np.ndarray
+    """(n,) below the surface, a vertex farther than this from the hole's axis fails."""
+    reach: np.ndarray
+    """(n,) the farthest peg vertex from the peg frame's origin."""
+
+
+class Episode(NamedTuple):
+    """Per-env episode state that score reads and updates in place."""
+
+    d0: np.ndarray
+    """(n,) the seat distance at the episode's start."""
+    c_prev: np.ndarray
+    """(n,) the last step's progress (updated)."""
+    returns: np.ndarray
+    """(n,) the return so far (updated)."""
+    last_obs: np.ndarray
+    """(n, 18) float32 the last observation (kept by unstable envs)."""
+
+
+class Outcome(NamedTuple):
+    """What score writes: one control step's result per env."""
+
+    obs: np.ndarray
+    """(n, 18) float32."""
+    reward: np.ndarray
+    """(n,) float64."""
+    success: np.ndarray
+    """(n,) bool."""
+    failure: np.ndarray
+    """(n,) bool."""
+
+
+class Layout(NamedTuple):
+    """Where each env's state lives in BatchSim's shard states."""
+
+    flat: np.ndarray
+    """(n, 14) int: index of each state entry in the flattened shard states."""
+    offset: np.ndarray
+    """(n, 14): env state = shard state - offset (the env's place in its shard)."""
+    shard_of: np.ndarray
+    """(n,) int: each env's shard."""
+
+
+class Checks(NamedTuple):
+    """The constants of the unstable test, taken from a PhysicsConfig."""
+
+    control_step: float
+    """s, the time one control step must advance a shard."""
+    timestep: float
+    """s, the physics step (the tolerance is half of it)."""
+    runaway_speed: float
+    """m/s, a peg faster than this is unstable (angular: 10x in rad/s)."""
+
+    @classmethod
+    def of(cls, p: PhysicsConfig) -> Checks:
+        return cls(
+            control_step=float(p.substeps * p.timestep),
+            timestep=float(p.timestep),
+            runaway_speed=float(p.runaway_speed),
+        )
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -89,23 +187,20 @@ def _observe_one(
 def observe(
     state: np.ndarray,
     idx: np.ndarray,
-    rows: np.ndarray,
-    origin: np.ndarray,
+    frames: Frames,
     e: np.ndarray,
-    noisy: bool,
-    pos_std: float,
-    rot_std: float,
+    params: StepParams,
     out: np.ndarray,
 ) -> None:
     """Observations of envs idx (k,) into out (k, 18) float32; e (k, 6) float32 their
-    estimation draws (ignored unless noisy). rows, origin: per env (n, ...)."""
-    ps = np.float32(pos_std)
+    estimation draws (ignored unless params.noise). frames: per env (n, ...)."""
+    ps = np.float32(params.obs_pos_noise)
     for j in range(len(idx)):
         i = idx[j]
         s = state[i]
         _observe_one(
-            s[1], s[2], s[3], s[4], s[5], s[6], s[7], i, rows, origin, e, j, noisy, ps,
-            rot_std, out,
+            s[1], s[2], s[3], s[4], s[5], s[6], s[7], i, frames.rows, frames.origin, e, j,
+            params.noise, ps, params.obs_rot_noise, out,
         )  # fmt: skip
 
 
@@ -164,37 +259,29 @@ def score(
     state: np.ndarray,
     unstable: np.ndarray,
     e: np.ndarray,
-    noisy: bool,
-    rows: np.ndarray,
-    origin: np.ndarray,
-    bottom_pos: np.ndarray,
-    bottom_quat_conj: np.ndarray,
-    bottom: np.ndarray,
-    vertices: np.ndarray,
-    hole_radius: np.ndarray,
-    reach: np.ndarray,
-    d0: np.ndarray,
-    c_prev: np.ndarray,
-    returns: np.ndarray,
-    last_obs: np.ndarray,
-    params: np.ndarray,
-    obs: np.ndarray,
-    reward: np.ndarray,
-    success: np.ndarray,
-    failure: np.ndarray,
+    frames: Frames,
+    episode: Episode,
+    params: StepParams,
+    out: Outcome,
 ) -> None:
-    """One control step's outcome for every env, after its physics: observation (into obs,
-    float32), reward, success and failure; returns and c_prev updated in place.
+    """One control step's outcome for every env, after its physics: observation, reward,
+    success and failure into out; episode.returns and episode.c_prev updated in place.
+    e (n, 6) float32: this step's estimation draws (ignored unless params.noise).
 
     An unstable env scores as a peg at the origin with the identity orientation (reward 0,
     neither success nor failure) and keeps its last observation, as PegInHoleVecEnv.step.
-    params: [dist_pos_weight, dist_rot_weight, success_radius, failure_depth,
-    failure_reward, obs_pos_noise, obs_rot_noise].
     """
-    w_t, w_r, radius, depth, fail_r, pos_std, rot_std = (
-        params[0], params[1], params[2], params[3], params[4], params[5], params[6],
+    w_t, w_r, radius = params.dist_pos_weight, params.dist_rot_weight, params.success_radius
+    depth, fail_r, noisy = params.failure_depth, params.failure_reward, params.noise
+    ps, rot_std = np.float32(params.obs_pos_noise), params.obs_rot_noise
+    rows, origin, bottom_pos, bottom_quat_conj = (
+        frames.rows, frames.origin, frames.bottom_pos, frames.bottom_quat_conj,
     )  # fmt: skip
-    ps = np.float32(pos_std)
+    bottom, vertices, hole_radius, reach = (
+        frames.bottom, frames.vertices, frames.hole_radius, frames.reach,
+    )  # fmt: skip
+    d0, c_prev, returns, last_obs = episode.d0, episode.c_prev, episode.returns, episode.last_obs
+    obs, reward, success, failure = out.obs, out.reward, out.success, out.failure
     for i in range(state.shape[0]):
         bad_physics = unstable[i]
         if bad_physics:
@@ -244,11 +331,9 @@ def score(
 @njit(cache=True, nogil=True)
 def gather(
     shard_flat: np.ndarray,
-    flat: np.ndarray,
-    offset: np.ndarray,
+    layout: Layout,
     t0: np.ndarray,
-    shard_of: np.ndarray,
-    params: np.ndarray,
+    checks: Checks,
     state: np.ndarray,
     unstable: np.ndarray,
 ) -> None:
@@ -257,9 +342,10 @@ def gather(
     state[e, c] = shard_flat[flat[e, c]] - offset[e, c]. An env is unstable when its state
     is not finite, its shard's time did not advance by the control step (MuJoCo stopped
     stepping it after a warning), or its peg is faster than the runaway speed. t0: the
-    shards' times before the step; params: [control step, timestep, runaway speed].
+    shards' times before the step.
     """
-    step, dt, speed = params[0], params[1], params[2]
+    flat, offset, shard_of = layout.flat, layout.offset, layout.shard_of
+    step, dt, speed = checks.control_step, checks.timestep, checks.runaway_speed
     lim, ang_lim = speed * speed, 100.0 * speed * speed
     for e in range(state.shape[0]):
         finite = True
@@ -297,8 +383,7 @@ def command(
 @njit(cache=True, nogil=True)
 def scatter(
     state: np.ndarray,
-    offset: np.ndarray,
-    flat: np.ndarray,
+    layout: Layout,
     velocity: np.ndarray,
     shard_flat: np.ndarray,
     ctrl: np.ndarray,
@@ -306,6 +391,7 @@ def scatter(
     """BatchSim's env states into its shard states (shard_flat[flat[e, c]] = state[e, c] +
     offset[e, c]) and the envs' velocities into the shards' controls ctrl (shards, substeps,
     6 x slots), held over the substeps (env e = shard * slots + slot)."""
+    flat, offset = layout.flat, layout.offset
     slots = ctrl.shape[2] // 6
     for e in range(state.shape[0]):
         for c in range(state.shape[1]):

@@ -1,20 +1,18 @@
-"""The compiled per-step kernels (sim/step_kernel.py) against their numpy forms
-(sim/step_numpy.py, built from the task functions of sim/task.py that test_sim_task.py
-holds to their matrix definitions), on random batches that reach every branch: success,
-failure below the surface outside the hole, inside the hole, unstable rows; and both against
-the shard layout they serve."""
+"""The compiled per-step kernels (sim/step_kernel.py) against the task's definitions on
+numpy arrays (the functions of sim/task.py, which test_sim_task.py holds to their matrix
+definitions), on random batches that reach every branch: success, failure below the surface
+outside the hole, inside the hole, unstable rows; and against the shard layout they serve."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 
 from sim import step_kernel as K
-from sim import step_numpy as NP
 from sim import task as T
 from sim.config import TaskConfig
-from sim.env import PegInHoleVecEnv
-from sim.step_impl import score_params
 
 N = 400
 V = 12
@@ -58,20 +56,61 @@ def _batch(seed: int) -> dict:
     }
 
 
-def _score(impl, b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
-    """impl.score on batch b: obs, reward, success, failure, returns, c_prev."""
+def _reference(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
+    """What one step scores, from sim/task.py's functions: obs, reward, success, failure,
+    returns, c_prev."""
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
-    params = score_params(cfg)
-    obs = np.empty((N, 18), dtype=np.float32)
-    reward, success, failure = np.empty(N), np.empty(N, bool), np.empty(N, bool)
-    c_prev, returns = b["c_prev"].copy(), b["returns"].copy()
-    impl.score(
-        b["state"], b["unstable"], b["e"], cfg.noise, frames.rows, frames.origin_in,
-        frames.bottom_pos, frames.bottom_quat_conj, b["bottom"], b["vertices"],
-        b["hole_radius"], b["reach"], b["d0"], c_prev, returns, b["last_obs"], params, obs,
-        reward, success, failure,
-    )  # fmt: skip
-    return obs, reward, success, failure, returns, c_prev
+    pos, quat = b["state"][:, 1:4].copy(), b["state"][:, 4:8].copy()
+    unstable = b["unstable"]
+    pos[unstable], quat[unstable] = 0.0, (1.0, 0.0, 0.0, 0.0)
+    d = T.seat_distance(pos, quat, frames.bottom_pos, frames.bottom_quat_conj,
+                        cfg.dist_pos_weight, cfg.dist_rot_weight)  # fmt: skip
+    c = T.progress(d, b["d0"])
+    r = c - b["c_prev"]
+    ok = T.succeeded(pos, frames.bottom_pos, cfg.success_radius) & ~unstable
+    bad = T.failed(pos, quat, b["vertices"], b["bottom"], b["hole_radius"], cfg.failure_depth,
+                   b["reach"]) & ~ok & ~unstable  # fmt: skip
+    r[ok] = 1.0 - b["returns"][ok]
+    r[bad] = cfg.failure_reward
+    r[unstable] = 0.0
+    if cfg.noise:
+        pos, quat = T.perturb(pos, quat, b["e"], cfg.obs_pos_noise, cfg.obs_rot_noise)
+    obs = T.observe_rows(pos, quat, frames.rows, frames.origin_in)
+    obs[unstable] = b["last_obs"][unstable]
+    return obs, r, ok, bad, b["returns"] + r, c
+
+
+def _kernel_frames(b: dict) -> K.Frames:
+    f = T.ObsFrames.of(b["entrance"], b["bottom"])
+    return K.Frames(rows=f.rows, origin=f.origin_in, bottom_pos=f.bottom_pos,
+                    bottom_quat_conj=f.bottom_quat_conj, bottom=b["bottom"],
+                    vertices=b["vertices"], hole_radius=b["hole_radius"],
+                    reach=b["reach"])  # fmt: skip
+
+
+def _score(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
+    """K.score on batch b: obs, reward, success, failure, returns, c_prev."""
+    out = K.Outcome(obs=np.empty((N, 18), dtype=np.float32), reward=np.empty(N),
+                    success=np.empty(N, bool), failure=np.empty(N, bool))  # fmt: skip
+    episode = K.Episode(d0=b["d0"], c_prev=b["c_prev"].copy(), returns=b["returns"].copy(),
+                        last_obs=b["last_obs"])  # fmt: skip
+    K.score(b["state"], b["unstable"], b["e"], _kernel_frames(b), episode,
+            K.StepParams.of(cfg), out)  # fmt: skip
+    return *out, episode.returns, episode.c_prev
+
+
+def test_step_params_are_taken_by_name() -> None:
+    """Every field of StepParams is the TaskConfig field of that name: no order to keep."""
+    cfg = TaskConfig(noise=True)
+    fields = {f.name for f in dataclasses.fields(TaskConfig)}
+    params = K.StepParams.of(cfg)
+    assert set(params._fields) <= fields
+    for name, value in params._asdict().items():
+        assert value == getattr(cfg, name), name
+    # every field differs from the others, so a swapped pair would show
+    changed = dataclasses.replace(cfg, failure_depth=0.0123, success_radius=0.0045)
+    assert K.StepParams.of(changed).failure_depth == 0.0123
+    assert K.StepParams.of(changed).success_radius == 0.0045
 
 
 @pytest.mark.parametrize("noise", [False, True])
@@ -79,8 +118,8 @@ def _score(impl, b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
 def test_score_equals_the_numpy_task_functions(noise: bool, seed: int) -> None:
     b = _batch(seed)
     cfg = TaskConfig(noise=noise)
-    want = _score(NP, b, cfg)
-    obs, reward, success, failure, returns, c_prev = _score(K, b, cfg)
+    want = _reference(b, cfg)
+    obs, reward, success, failure, returns, c_prev = _score(b, cfg)
     # every branch is reached, or the comparison proves little
     assert want[2].sum() > 10 and want[3].sum() > 10 and b["unstable"].sum() > 5
     low_unfailed = (b["state"][:, 3] < -0.01) & ~want[3] & ~b["unstable"]
@@ -99,16 +138,13 @@ def test_observe_of_chosen_envs_equals_the_reference() -> None:
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
     idx = np.array([5, 0, 399, 17])
     e = b["e"][: len(idx)]
-    got, want = (np.empty((len(idx), 18), dtype=np.float32) for _ in range(2))
-    for impl, out in ((K, got), (NP, want)):
-        impl.observe(b["state"], idx, frames.rows, frames.origin_in, e, True,
-                     cfg.obs_pos_noise, cfg.obs_rot_noise, out)  # fmt: skip
-    np.testing.assert_allclose(got, want, rtol=0, atol=2e-7)
-    # and the numpy form is the task's observation of the perturbed pose
+    got = np.empty((len(idx), 18), dtype=np.float32)
+    K.observe(b["state"], idx, _kernel_frames(b), e, K.StepParams.of(cfg), out=got)
+    # the task's observation of the perturbed pose
     pos, quat = T.perturb(
         b["state"][idx, 1:4], b["state"][idx, 4:8], e, cfg.obs_pos_noise, cfg.obs_rot_noise
     )
-    np.testing.assert_array_equal(want, T.observe(pos, quat, frames[idx]))
+    np.testing.assert_allclose(got, T.observe(pos, quat, frames[idx]), rtol=0, atol=2e-7)
 
 
 def test_command_clips_scales_and_adds_noise() -> None:
@@ -118,14 +154,12 @@ def test_command_clips_scales_and_adds_noise() -> None:
     scale, std = np.array([0.25] * 3 + [1.5] * 3), np.array([5e-4] * 3 + [0.017] * 3)
     for noisy in (False, True):
         want = np.clip(actions, -1, 1) * scale + (e * std if noisy else 0.0)
-        for impl in (K, NP):
-            out = np.empty((50, 6))
-            impl.command(actions, e, noisy, scale, std, out)
-            np.testing.assert_array_equal(out, want)
+        out = np.empty((50, 6))
+        K.command(actions, e, noisy, scale, std, out)
+        np.testing.assert_array_equal(out, want)
 
 
-@pytest.mark.parametrize("impl", [K, NP], ids=["numba", "numpy"])
-def test_scatter_and_gather_follow_the_flat_layout(impl) -> None:
+def test_scatter_and_gather_follow_the_flat_layout() -> None:
     """Env e's state lives at flat positions flat[e] of the shard states, shifted by its
     offset; gather flags non-finite rows, stalled shards and runaway pegs."""
     rng = np.random.default_rng(5)
@@ -142,7 +176,8 @@ def test_scatter_and_gather_follow_the_flat_layout(impl) -> None:
     velocity = rng.normal(size=(n, 6))
     shard_flat = np.zeros(shards * nshard)
     ctrl = np.zeros((shards, 4, 6 * slots))
-    impl.scatter(state, offset, flat, velocity, shard_flat, ctrl)
+    layout = K.Layout(flat=flat, offset=offset, shard_of=env // slots)
+    K.scatter(state, layout, velocity, shard_flat, ctrl)
     np.testing.assert_array_equal(shard_flat[flat], state + offset)
     for e in range(n):
         for t in range(4):
@@ -158,33 +193,7 @@ def test_scatter_and_gather_follow_the_flat_layout(impl) -> None:
     shard_flat[flat[4, 8]] = 11.0 + offset[4, 8]  # env 4: runaway linear speed
     out = np.empty((n, 14))
     unstable = np.empty(n, dtype=bool)
-    shard_of = env // slots
-    impl.gather(shard_flat, flat, offset, t0, shard_of, np.array([step, dt, speed]), out, unstable)
+    checks = K.Checks(control_step=step, timestep=dt, runaway_speed=speed)
+    K.gather(shard_flat, layout, t0, checks, out, unstable)
     np.testing.assert_array_equal(out, shard_flat[flat] - offset)
     assert unstable.tolist() == [True, False, True, True, True]
-
-
-def test_numba_and_numpy_envs_step_alike() -> None:
-    """Whole episodes, noise and resets included, come out the same from either form."""
-    from tests.test_sim_common import modules
-
-    runs = []
-    for kernels in ("numba", "numpy"):
-        cfg = TaskConfig(curriculum_steps=400, max_steps=40)
-        env = PegInHoleVecEnv(list(modules()), 8, cfg, nthread=1, kernels=kernels)
-        assert env.kernels == kernels
-        rng = np.random.default_rng(0)
-        steps = [(env.reset(seed=1),)]
-        for _ in range(150):
-            obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, (8, 6)))
-            steps.append((obs, r, term, trunc, info["success"], info["failure"]))
-        runs.append(steps)
-    ends = 0
-    for a, b in zip(*runs, strict=True):
-        np.testing.assert_allclose(a[0], b[0], rtol=0, atol=2e-7)
-        if len(a) > 1:
-            np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-12)
-            for x, y in zip(a[2:], b[2:], strict=True):
-                np.testing.assert_array_equal(x, y)
-            ends += int(a[2].sum() + a[3].sum())
-    assert ends > 0, "some episodes must end (and reset) within the run"
