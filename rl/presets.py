@@ -59,7 +59,7 @@ PRESETS: dict[str, dict[str, Setup]] = {
         ),
     },
     "cpu": {
-        # sized on a 2-core CPU (docs/benchmarks.md): the curriculum spans about half of
+        # sized on a 2-core CPU: the curriculum spans about half of
         # what a 60-minute run reaches, so the second half trains on the full spawn ranges
         # it is evaluated on
         "ppo": Setup(

@@ -4,7 +4,7 @@ Envs are grouped in shards: `shard_size` modules and their pegs side by side in 
 (each peg collides only with its own module, through its own collision bit), each shard
 stepped `substeps` physics steps per call with no Python in between, the shards spread over
 C threads by `mujoco.rollout`. Friction and restitution are randomised per env in its
-shard's model. Why shards (measured: docs/benchmarks.md, simulator): in free flight the
+shard's model. Why shards (measured with `assetgen bench sim --shard-size`): in free flight the
 per-step overhead is shared by the pegs of a shard, and a thread pool of `mj_step` calls is
 bound by the GIL between the short C calls. The price of sharing: MuJoCo stops stepping a
 model after a warning, so an unstable env stalls its shard-mates for that step (they are

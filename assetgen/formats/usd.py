@@ -29,7 +29,7 @@ them as they are (unknown schema names are kept in the list, just not reported a
 Speed: the stage is written as .usda text from a template, with every number array formatted
 by USD itself (str() of a numpy-backed Vt array: the same shortest round-trip digits Sdf
 writes), all meshes in one batch: authoring spec by spec through the Sdf API was many times
-slower for a module of many pieces (docs/benchmarks.md). The text is canonical: Sdf reads it back
+slower for a module of many pieces. The text is canonical: Sdf reads it back
 and writes the same bytes (the tests check this), so it is the file Sdf would write itself.
 """
 
