@@ -22,13 +22,13 @@ from assetgen.core.atomic_file import write_json
 from assetgen.core.mujoco_config import physics_for
 from assetgen.dataset.reader import Dataset
 from rl.evaluate import evaluate
-from sim.assets import load_dataset
-from sim.env import PegInHoleVecEnv, _dataset_root, eval_config
+from sim.assets import dataset_root, load_dataset
+from sim.env import PegInHoleVecEnv, eval_config
 from sim.expert import EXPERTS
 
 
 def run(dataset: str, agents: list[str], attempts: int, modules: int | None, factors: list[int]):
-    root = _dataset_root(dataset)
+    root = dataset_root(dataset)
     ids = Dataset(root).ids[:modules] if modules else None
     assets = load_dataset(root, ids)
     base = physics_for(min(a.clearance for a in assets))

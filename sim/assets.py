@@ -154,6 +154,17 @@ def check_physics(root: Path | str, keep: bool = False):
     )
 
 
+def dataset_root(dataset: str | Path) -> Path:
+    """A dataset spec name (`train`, `test`) or a folder -> the folder; ValueError naming
+    the specs there are for an unknown name."""
+    from assetgen.dataset.spec import DatasetError, resolve
+
+    try:
+        return resolve(str(dataset))[0]
+    except DatasetError as e:
+        raise ValueError(str(e)) from e
+
+
 def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleAsset]:
     """Every module of a dataset folder (or the listed ids), checked before simulation."""
     from assetgen.dataset.reader import Dataset

@@ -39,7 +39,7 @@ from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim import step_kernel as K
 from sim import task as T
-from sim.assets import ModuleAsset, check_physics, load_dataset
+from sim.assets import ModuleAsset, check_physics, dataset_root, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
 from sim.scene import restitution_to_dampratio
@@ -460,16 +460,6 @@ class PegInHoleVecEnv:
         self.sim.close()
 
 
-def _dataset_root(dataset: str | Path) -> Path:
-    """A dataset spec name (`train`, `test`) or a folder -> the folder."""
-    from assetgen.dataset.spec import DatasetError, resolve
-
-    try:
-        return resolve(str(dataset))[0]
-    except DatasetError as e:
-        raise ValueError(str(e)) from e
-
-
 def make_train_env(
     dataset: str,
     num_envs: int,
@@ -483,7 +473,7 @@ def make_train_env(
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
     simulated with the physics its files carry)."""
-    root = _dataset_root(dataset)
+    root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
@@ -525,7 +515,7 @@ def make_eval_env(
     keep_physics: as for make_train_env."""
     from assetgen.dataset.reader import Dataset, content_hash
 
-    root = _dataset_root(dataset)
+    root = dataset_root(dataset)
     config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     ids = None
     if modules is not None:

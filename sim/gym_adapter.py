@@ -140,11 +140,10 @@ def _vec_env(
 ) -> PegInHoleVecEnv:
     from dataclasses import replace
 
-    from sim.assets import check_physics
+    from sim.assets import check_physics, dataset_root
     from sim.config import TaskConfig
-    from sim.env import _dataset_root
 
-    root = _dataset_root(dataset)
+    root = dataset_root(dataset)
     config = replace(TaskConfig(physics=check_physics(root, keep_physics)), **task)
     # with fewer envs than modules every episode takes the next module (make_train_env)
     return PegInHoleVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)

@@ -288,10 +288,10 @@ def is_assembly_dataset(dataset: str | Path) -> bool:
     Table I's peg-in-hole), which `assetgen eval` plays in sequence."""
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import DatasetError
-    from sim.env import _dataset_root
+    from sim.assets import dataset_root
 
     try:
-        return Dataset(_dataset_root(dataset)).spec.family != "peg-in-hole"
+        return Dataset(dataset_root(dataset)).spec.family != "peg-in-hole"
     except DatasetError:
         return False  # not a dataset: the caller's own loading says why
 
@@ -314,10 +314,10 @@ def evaluate_assembly_dataset(
     task config; the result names the dataset (folder and content hash) as `assetgen eval`'s
     files do. keep_physics: as for sim.env.make_train_env."""
     from assetgen.dataset.reader import Dataset, content_hash
-    from sim.assets import check_physics
-    from sim.env import _dataset_root, eval_config
+    from sim.assets import check_physics, dataset_root
+    from sim.env import eval_config
 
-    root = _dataset_root(dataset)
+    root = dataset_root(dataset)
     config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     ds = Dataset(root)
     if not ds.ids:
