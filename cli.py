@@ -443,6 +443,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     e.add_argument("--dataset", default="test", help="spec name or dataset folder")
     e.add_argument("--attempts", type=int, default=10, help="episodes per module")
+    e.add_argument(
+        "--sim",
+        choices=["mujoco", "physx"],
+        default="mujoco",
+        help="physics engine: MuJoCo (the simulator) or PhysX (the referee: SAPIEN on the CPU, "
+        "read from the USD files; the physx extra)",
+    )
     e.add_argument("--seed", type=int, default=0)
     e.add_argument(
         "--envs", type=int, default=None, help="parallel envs at most (default: one per module)"

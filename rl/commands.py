@@ -302,10 +302,15 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     noise_scale = 1.0 if noise_scale is None else float(noise_scale)  # 0 is a valid scale
     record = getattr(args, "record", None)
     keep = bool(getattr(args, "keep_dataset_physics", False))
+    engine = getattr(args, "sim", None) or "mujoco"
+    # the engine reaches the env factory only when it is not the default one
+    on_engine: dict[str, Any] = {} if engine == "mujoco" else {"engine": engine}
     try:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
+        if sequence and on_engine:
+            raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")
         reset = None
         wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
         if run is not None:
@@ -341,8 +346,9 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
 
             if not sequence:
                 base = hooks.make_env(
-                    args.dataset, args.envs, args.seed, noise_scale=noise_scale, keep_physics=keep
-                )
+                    args.dataset, args.envs, args.seed, noise_scale=noise_scale,
+                    keep_physics=keep, **on_engine,
+                )  # fmt: skip
                 env = wrap(base)
             policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
             reset = reset_hook(agent)
@@ -365,7 +371,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 raise ValueError("--stochastic applies to --checkpoint policies only")
             if not sequence:
                 env = base = hooks.make_env(
-                    args.dataset, args.envs, args.seed, noise_scale=noise_scale
+                    args.dataset, args.envs, args.seed, noise_scale=noise_scale, **on_engine
                 )
             policy = hooks.agents[args.agent](args.seed)
             head = {"agent": args.agent, "policy": hooks.policies.get(args.agent, "deterministic")}

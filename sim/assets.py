@@ -50,6 +50,9 @@ class ModuleAsset:
     peg_pieces: tuple[Mesh, ...] = ()
     """Convex pieces whose union is the peg (peg frame), for a part that is not convex (an
     assembly's profile or bolt): one geom each. Empty: the peg is convex and is its geom."""
+    folder: Path | None = None
+    """The module's folder (its files: the USD a second engine reads); None for a module
+    built in memory."""
 
 
 def read_meshes(data: bytes, name: str) -> tuple[Mesh, tuple[Mesh, ...]]:
@@ -121,6 +124,7 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
         peg_com=com,
         peg_inertia=inertia,
         pieces=pieces,
+        folder=d,
     )
 
 

@@ -29,7 +29,7 @@ from mujoco import rollout
 from sim import step_kernel as K
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
-from sim.scene import build_model, contact_solref
+from sim.scene import build_model, contact_solref, restitution_to_dampratio
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # Counts that size arrays of mjData: the capacity model's must be at least each model's.
@@ -230,6 +230,16 @@ class BatchSim:
             g = slice(self.peg_geom[e], self.peg_geom[e] + self.peg_ngeom[e])
             m.geom_friction[g, 0] = friction[j]
             m.geom_solref[g] = solref[j]
+
+    def set_material(
+        self, idx: np.ndarray, static: np.ndarray, dynamic: np.ndarray, restitution: np.ndarray
+    ) -> None:
+        """The task's contact draws for envs `idx`, as MuJoCo models contact: one Coulomb
+        coefficient, the dynamic one (it governs sliding, the regime of insertion; the static
+        draw is unused), and restitution mapped onto the damping ratio
+        (scene.restitution_to_dampratio)."""
+        del static
+        self.set_contact(idx, dynamic, restitution_to_dampratio(restitution, self.task.physics))
 
     def contact_params(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-env peg friction (num_envs,) and solref (num_envs, 2), as set last."""

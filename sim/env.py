@@ -28,6 +28,7 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -42,7 +43,7 @@ from sim import task as T
 from sim.assets import ModuleAsset, check_physics, dataset_root, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
-from sim.scene import restitution_to_dampratio
+from sim.physx_config import PhysxConfig
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -55,6 +56,10 @@ def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
         [rng.permutation(num_modules) for _ in range(-(-(num_envs - num_modules) // num_modules))]
     )
     return np.concatenate([np.arange(num_modules), extra[: num_envs - num_modules]])
+
+
+ENGINES = ("mujoco", "physx")
+"""Physics engines the env runs on."""
 
 
 class PegInHoleVecEnv:
@@ -80,7 +85,13 @@ class PegInHoleVecEnv:
         nthread: int | None = None,
         shard_size: int = 8,
         rotate_modules: bool = False,
+        engine: str = "mujoco",
+        physx: PhysxConfig | None = None,
     ) -> None:
+        if engine not in ENGINES:
+            raise ValueError(f"engine = {engine!r}; expected one of {ENGINES}")
+        self.engine = engine
+        """The physics engine: mujoco (the simulator) or physx (the referee, sim/physx_batch.py)."""
         self.cfg = (config or TaskConfig()).validate()
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
@@ -110,7 +121,17 @@ class PegInHoleVecEnv:
             spare = [modules[k] for k in self._queue]
         self._first_assignment = (self.env_module.copy(), list(self._queue))
         """The modules' order at construction, which a seeded reset restores."""
-        self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
+        if engine == "physx":
+            if self.rotate_modules:
+                raise ValueError(
+                    f"engine = 'physx' serves one env per module ({len(modules)} modules, "
+                    f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
+                )
+            from sim.physx_batch import PhysxBatchSim
+
+            self.sim = PhysxBatchSim(assets, self.cfg, physx)
+        else:
+            self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt
         self.protocol: dict[str, Any] = {}
         """How this env evaluates, for evaluation files (make_eval_env fills it)."""
@@ -271,12 +292,12 @@ class PegInHoleVecEnv:
         )
         self.sim.set_pose(idx, pos, quat)
         k = len(idx)
-        # static and dynamic friction are drawn as in the original; MuJoCo has one Coulomb
-        # coefficient, which governs sliding (the regime of insertion): the dynamic one
+        # static and dynamic friction are drawn as in the original; each engine takes them
+        # as it models contact (BatchSim.set_material, PhysxBatchSim.set_material)
         u = self.rng.random((3, k))  # static friction, dynamic friction, restitution
         lo, hi = np.array([cfg.friction_range, cfg.friction_range, cfg.restitution_range]).T
-        _static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
-        self.sim.set_contact(idx, dynamic, restitution_to_dampratio(restitution, cfg.physics))
+        static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
+        self.sim.set_material(idx, static, dynamic, restitution)
         self._start_episodes(idx, pos, quat)
 
     def set_peg_poses(self, idx: np.ndarray, poses: np.ndarray) -> None:
@@ -393,6 +414,8 @@ class PegInHoleVecEnv:
         """Everything needed to continue identically (rl/vec_env.py's StatefulVecEnv):
         physics, per-env contact draws, episode bookkeeping, RNG, counters. (MuJoCo's solver
         warm start is not state here: every control step starts it cold.)"""
+        if self.engine != "mujoco":
+            raise ValueError(f"engine = {self.engine!r}: saving the env's state is MuJoCo's only")
         friction, solref = self.sim.contact_params()
         return {
             "shard_state": self.sim.shard_state.copy(),
@@ -504,6 +527,8 @@ def make_eval_env(
     noise_scale: float = 1.0,
     modules: int | None = None,
     keep_physics: bool = False,
+    engine: str = "mujoco",
+    physx: PhysxConfig | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -512,7 +537,8 @@ def make_eval_env(
     paper's). The env's `protocol` dict names the dataset (folder and content hash), the
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
-    keep_physics: as for make_train_env."""
+    keep_physics: as for make_train_env. engine: mujoco, or physx (the referee, with the
+    PhysX settings `physx`)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)
@@ -528,7 +554,9 @@ def make_eval_env(
             f"num_envs = {num_envs} is less than the dataset's {len(modules)} modules: a "
             "checkpoint is evaluated with one env per module; raise num_envs"
         )
-    env = PegInHoleVecEnv(modules, len(modules), config, assignment_seed=seed)
+    env = PegInHoleVecEnv(
+        modules, len(modules), config, assignment_seed=seed, engine=engine, physx=physx
+    )
     ds = Dataset(root)
     env.protocol = {
         "dataset_folder": str(root),
@@ -537,5 +565,9 @@ def make_eval_env(
         "noise_scale": noise_scale,
         "physics_version": physics_from_record(ds.info.get("physics"))[0],
         "timestep": env.cfg.physics.timestep,
+        "engine": engine,
     }
+    if engine == "physx":
+        env.protocol["timestep"] = env.sim.physx.timestep
+        env.protocol["physx"] = dataclasses.asdict(env.sim.physx)
     return env
