@@ -10,7 +10,7 @@ model of one or more envs), batch.py (mujoco.rollout over per-env models), task.
 (observation, reward, success, failure, spawn), step_kernel.py (the per-step arithmetic,
 compiled), env.py (the vector env), expert.py (a scripted expert), recording.py (episodes
 for the preview), bench.py (throughput), gym_adapter.py / torch_adapter.py (gymnasium and
-torch views).
+torch views), usd_module.py / physx_config.py / physx_batch.py (PhysX, the referee engine).
 """
 
 from sim.assets import AssetError, load_dataset, load_module
