@@ -149,3 +149,20 @@ def test_eval_runs_on_physx_from_the_command_line(tmp_path: Path) -> None:
     res = json.loads(out.read_text())
     assert res["engine"] == "physx" and res["physx"]["timestep"] == PhysxConfig().timestep
     assert res["episodes"] == 3 and res["success_rate"] == 1.0
+
+
+def test_a_piece_cut_in_two_is_the_piece() -> None:
+    """_halves: two convex parts on either side of the middle of the longest extent whose
+    volumes add up to the piece's and whose union holds every corner."""
+    from scipy.spatial import ConvexHull
+
+    from sim.physx_batch import _halves
+
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(40, 3)) * [0.03, 0.01, 0.005]
+    a, b = _halves(v)
+    whole = ConvexHull(v).volume
+    assert ConvexHull(a).volume + ConvexHull(b).volume == pytest.approx(whole, rel=1e-9)
+    assert a[:, 0].max() == pytest.approx(b[:, 0].min())  # cut across x, the longest extent
+    for p in v:
+        assert p[0] <= a[:, 0].max() + 1e-12 or p[0] >= b[:, 0].min() - 1e-12
