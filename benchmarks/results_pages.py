@@ -65,6 +65,43 @@ PAGES: tuple[Page, ...] = (
 the paper (the README's table). shipped: every policy in checkpoints/."""
 
 
+REFEREE: tuple[tuple[str, str, str], ...] = (
+    ("scripted-direct", "docs/results/baselines/scripted-direct_test.json",
+     "docs/results/referee/scripted-direct_physx_test.json"),
+    ("sac-direct-bc", "checkpoints/sac-direct-bc/eval_test.json",
+     "docs/results/referee/sac-direct-bc_physx_test.json"),
+)  # fmt: skip
+"""The referee page: (agent, its MuJoCo evaluation, its PhysX evaluation), on the test split;
+rows whose files are missing are left out."""
+
+
+def referee_table() -> str:
+    """MuJoCo against PhysX (docs/results/referee/table.md), from the evaluation files."""
+    import json
+
+    head = (
+        "| agent | engine | episodes | success | median time to success | truncated | failed "
+        "| unstable |\n|---|---|---|---|---|---|---|---|"
+    )
+    rows = [head]
+    for agent, *files in REFEREE:
+        for f in files:
+            path = ROOT / f
+            if not path.exists():
+                continue
+            d = json.loads(path.read_text())
+            engine = d.get("engine", "mujoco")
+            step = d.get("timestep")
+            rows.append(
+                f"| {agent} | {engine} ({step * 1e3:g} ms) | {d['episodes']} "
+                f"({d['attempts']} × {d['episodes'] // d['attempts']}) | "
+                f"{100 * d['success_rate']:.2f} % | {d['median_time_to_success_s']:.2f} s | "
+                f"{100 * d['truncation_rate']:.2f} % | {100 * d['failure_rate']:.2f} % | "
+                f"{d.get('unstable', 0)} |"
+            )
+    return "\n".join(rows) + "\n"
+
+
 def page_table(page: Page) -> str:
     """The markdown table the page's inputs give now."""
     from rl.report import load_baselines, load_run, markdown_table, summarise
@@ -106,6 +143,16 @@ def main(argv: list[str] | None = None) -> int:
         if page.readme:
             replace_table(ROOT / "README.md", table.read_text())
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
+    referee = RESULTS / "referee" / "table.md"
+    if args.check:
+        if not referee.exists() or referee.read_text() != referee_table():
+            stale.append("referee")
+    else:
+        from assetgen.core.atomic_file import write_text
+
+        referee.parent.mkdir(parents=True, exist_ok=True)
+        write_text(referee, referee_table())
+        print(f"wrote {referee.relative_to(ROOT)}")
     if stale:
         print(f"stale: {', '.join(stale)}; run python -m benchmarks.results_pages", file=sys.stderr)
         return 1

@@ -40,3 +40,18 @@ def test_readme_table_is_its_page() -> None:
     assert readme_table() == page_table(page).strip(), (
         "README.md's results table is stale: run python -m benchmarks.results_pages"
     )
+
+
+def test_referee_page_is_generated_from_its_files() -> None:
+    from benchmarks.results_pages import REFEREE, referee_table
+
+    table = RESULTS / "referee" / "table.md"
+    assert table.exists() and table.read_text() == referee_table(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+    # every PhysX file the page names is a PhysX evaluation on the current physics' splits
+    for _agent, _mujoco, physx in REFEREE:
+        path = ROOT / physx
+        if path.exists():
+            doc = json.loads(path.read_text())
+            assert doc["engine"] == "physx" and doc["dataset"] == "test", physx
