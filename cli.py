@@ -521,12 +521,13 @@ TEACHERS = {name: functools.partial(_expert, name) for name in EXPERT_NAMES}
 
 
 EXTRAS: dict[str, tuple[str, ...]] = {
-    "scipy": ("cad",),
+    "scipy": ("cad", "physx"),
     "manifold3d": ("cad", "view"),
     "trimesh": ("cad", "view"),
     "fcl": ("cad",),
     "coacd": ("cad",),
-    "pxr": ("cad",),
+    "pxr": ("cad", "physx"),
+    "sapien": ("physx",),
     "torch": ("rl",),
     "safetensors": ("rl",),
     "gymnasium": ("rl",),
@@ -539,13 +540,15 @@ COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl", "e
 """The extra to name first for a command, where a module comes with several."""
 
 
-def missing_extra_message(command: str, module: str) -> str | None:
-    """The one-line advice for a missing optional library (None: not an optional one)."""
+def missing_extra_message(command: str, module: str, engine: str | None = None) -> str | None:
+    """The one-line advice for a missing optional library (None: not an optional one);
+    `engine`: the command's --sim, whose extra is named first."""
     top = module.split(".")[0]
     extras = EXTRAS.get(top)
     if extras is None:
         return None
-    extra = COMMAND_EXTRA.get(command) if COMMAND_EXTRA.get(command) in extras else extras[0]
+    first = engine if engine in extras else COMMAND_EXTRA.get(command)
+    extra = first if first in extras else extras[0]
     return (
         f"`assetgen {command}` needs the Python package {top!r}, which comes with the "
         f'[{extra}] extra: pip install "peg-in-hole-assetgen[{extra}]" (in a checkout: '
@@ -558,7 +561,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except ModuleNotFoundError as e:
-        message = missing_extra_message(args.command, e.name or "")
+        message = missing_extra_message(args.command, e.name or "", getattr(args, "sim", None))
         if message is None:
             raise
         return _err(message)

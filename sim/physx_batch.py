@@ -35,9 +35,10 @@ from sim.usd_module import UsdModule, load_usd_module
 def _sapien():
     try:
         import sapien
-    except ImportError as e:
-        raise ImportError(
-            f"the PhysX engine needs SAPIEN ({e}): pip install -c constraints.txt -e '.[physx]'"
+    except ModuleNotFoundError as e:
+        # the command line turns this into its one-line advice (cli.missing_extra_message)
+        raise ModuleNotFoundError(
+            f"the PhysX engine needs SAPIEN ({e}): pip install -e '.[physx]'", name=e.name
         ) from e
     return sapien
 

@@ -68,8 +68,10 @@ def load_usd_module(path: str | Path, asset: ModuleAsset | None = None) -> UsdMo
     use."""
     try:
         from pxr import Usd, UsdGeom, UsdPhysics
-    except ImportError as e:
-        raise ImportError(f"reading USD needs usd-core ({e}): pip install -e '.[physx]'") from e
+    except ModuleNotFoundError as e:
+        raise ModuleNotFoundError(
+            f"reading USD needs usd-core ({e}): pip install -e '.[physx]'", name=e.name
+        ) from e
     path = Path(path)
     if path.is_dir():
         path = path / USD_FILE

@@ -166,3 +166,43 @@ def test_a_piece_cut_in_two_is_the_piece() -> None:
     assert a[:, 0].max() == pytest.approx(b[:, 0].min())  # cut across x, the longest extent
     for p in v:
         assert p[0] <= a[:, 0].max() + 1e-12 or p[0] >= b[:, 0].min() - 1e-12
+
+
+def test_without_the_extra_the_command_line_names_it(tmp_path: Path) -> None:
+    import os
+    import subprocess
+    import sys
+
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(
+        "import sys\n"
+        "class _Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'sapien':\n"
+        "            raise ModuleNotFoundError('sapien is blocked by this test', name=name)\n"
+        "sys.meta_path.insert(0, _Block())\n"
+    )
+    repo = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(repo)]))
+    r = subprocess.run(
+        [sys.executable, "-m", "cli", "eval", "--agent", "scripted", "--dataset",
+         str(_dataset()), "--attempts", "1", "--sim", "physx"],
+        capture_output=True, text=True, env=env, cwd=repo,
+    )  # fmt: skip
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    assert len(r.stderr.strip().splitlines()) == 1 and "[physx]" in r.stderr, r.stderr
+
+
+def test_the_observation_of_a_pose_is_mujocos() -> None:
+    mods = load_dataset(_dataset())
+    rng = np.random.default_rng(1)
+    poses = np.tile(np.eye(4), (len(mods), 1, 1))
+    poses[:, :3, 3] = rng.uniform(-0.02, 0.02, (len(mods), 3)) + np.array([0, 0, 0.05])
+    obs = {}
+    for engine in ("mujoco", "physx"):
+        env = PegInHoleVecEnv(mods, len(mods), _quiet(), engine=engine, nthread=1)
+        env.reset(seed=0)
+        env.set_peg_poses(np.arange(len(mods)), poses)
+        obs[engine] = env._obs.copy()
+    np.testing.assert_allclose(obs["physx"], obs["mujoco"], rtol=0, atol=1e-6)
