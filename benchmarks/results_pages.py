@@ -65,14 +65,20 @@ PAGES: tuple[Page, ...] = (
 the paper (the README's table). shipped: every policy in checkpoints/."""
 
 
-REFEREE: tuple[tuple[str, str, str], ...] = (
-    ("scripted-direct", "docs/results/baselines/scripted-direct_test.json",
+REFEREE: tuple[tuple[str, str, str, str], ...] = (
+    ("scripted-fast", "test", "docs/results/baselines/scripted-fast_test.json",
+     "docs/results/referee/scripted-fast_physx_test.json"),
+    ("scripted-direct", "test", "docs/results/baselines/scripted-direct_test.json",
      "docs/results/referee/scripted-direct_physx_test.json"),
-    ("sac-direct-bc", "checkpoints/sac-direct-bc/eval_test.json",
+    ("sac-direct-bc", "test", "checkpoints/sac-direct-bc/eval_test.json",
      "docs/results/referee/sac-direct-bc_physx_test.json"),
+    ("scripted-direct", "test_c025", "docs/results/referee/scripted-direct_mujoco_test_c025.json",
+     "docs/results/referee/scripted-direct_physx_test_c025.json"),
+    ("sac-direct-bc", "test_c025", "checkpoints/sac-direct-bc/eval_test_c025.json",
+     "docs/results/referee/sac-direct-bc_physx_test_c025.json"),
 )  # fmt: skip
-"""The referee page: (agent, its MuJoCo evaluation, its PhysX evaluation), on the test split;
-rows whose files are missing are left out."""
+"""The referee page: (agent, split, its MuJoCo evaluation, its PhysX evaluation); rows whose
+files are missing are left out."""
 
 
 def referee_table() -> str:
@@ -80,11 +86,11 @@ def referee_table() -> str:
     import json
 
     head = (
-        "| agent | engine | episodes | success | median time to success | truncated | failed "
-        "| unstable |\n|---|---|---|---|---|---|---|---|"
+        "| agent | split | engine | episodes | success | median time to success | truncated "
+        "| failed | unstable |\n|---|---|---|---|---|---|---|---|---|"
     )
     rows = [head]
-    for agent, *files in REFEREE:
+    for agent, split, *files in REFEREE:
         for f in files:
             path = ROOT / f
             if not path.exists():
@@ -93,7 +99,7 @@ def referee_table() -> str:
             engine = d.get("engine", "mujoco")
             step = d.get("timestep")
             rows.append(
-                f"| {agent} | {engine} ({step * 1e3:g} ms) | {d['episodes']} "
+                f"| {agent} | {split} | {engine} ({step * 1e3:g} ms) | {d['episodes']} "
                 f"({d['attempts']} × {d['episodes'] // d['attempts']}) | "
                 f"{100 * d['success_rate']:.2f} % | {d['median_time_to_success_s']:.2f} s | "
                 f"{100 * d['truncation_rate']:.2f} % | {100 * d['failure_rate']:.2f} % | "

@@ -50,8 +50,8 @@ def test_referee_page_is_generated_from_its_files() -> None:
         f"{table} is stale: run python -m benchmarks.results_pages"
     )
     # every PhysX file the page names is a PhysX evaluation on the current physics' splits
-    for _agent, _mujoco, physx in REFEREE:
-        path = ROOT / physx
-        if path.exists():
-            doc = json.loads(path.read_text())
-            assert doc["engine"] == "physx" and doc["dataset"] == "test", physx
+    for _agent, split, mujoco, physx in REFEREE:
+        for f, engine in ((mujoco, "mujoco"), (physx, "physx")):
+            if (ROOT / f).exists():
+                doc = json.loads((ROOT / f).read_text())
+                assert doc.get("engine", "mujoco") == engine and doc["dataset"] == split, f
