@@ -276,6 +276,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return bench_main(args)
         except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
+    if getattr(args, "sim", "mujoco") != "mujoco" and args.what != "contacts":
+        return _err(f"bench {args.what} --sim {args.sim}: only `bench contacts` runs on PhysX")
     if args.what == "contacts":
         from assetgen.dataset.spec import DatasetError
         from sim.assets import AssetError
@@ -416,6 +418,12 @@ def build_parser() -> argparse.ArgumentParser:
         "peg_in_hole.xml files with the physics they carry",
     )
     b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
+    b.add_argument(
+        "--sim",
+        choices=["mujoco", "physx"],
+        default="mujoco",
+        help="contacts: the engine (physx: the referee, from the USD files; the physx extra)",
+    )
     b.add_argument(
         "--push-time", type=float, default=None, help="contacts: seconds a push lasts (1.5)"
     )

@@ -754,8 +754,20 @@ def main(args) -> int:
     def progress(done: int, total: int) -> None:
         print(f"\r{done}/{total} modules", end="", file=sys.stderr, flush=True)
 
+    engine = getattr(args, "sim", None) or "mujoco"
+    if engine == "physx" and (mjcf is not None or args.set or version is not None):
+        raise ValueError("--sim physx takes its settings from PhysxConfig: drop --source, --set "
+                         "and --physics-version")  # fmt: skip
     t0 = time.perf_counter()
-    records = stress(assets, physics, cfg, mjcf=mjcf, nthread=args.threads, progress=progress)
+    if engine == "physx":
+        from sim.contact_stress_physx import stress_physx
+        from sim.physx_config import PhysxConfig
+
+        physx = PhysxConfig()
+        task = TaskConfig(physics=physics)
+        records = stress_physx(assets, cfg, task, physx, progress=progress)
+    else:
+        records = stress(assets, physics, cfg, mjcf=mjcf, nthread=args.threads, progress=progress)
     print(file=sys.stderr)
     seconds = time.perf_counter() - t0
     clearances = sorted({a.clearance for a in assets})
@@ -764,7 +776,8 @@ def main(args) -> int:
     for s in summaries:
         print(
             f"{root}: {s['modules']} modules, clearance {s['clearance'] * 1e3:g} mm, "
-            f"{'exported files' if mjcf else 'simulator models'}, {seconds:.0f} s"
+            f"{'PhysX' if engine == 'physx' else 'exported files' if mjcf else 'simulator models'}"
+            f", {seconds:.0f} s"
         )
         rows = format_summary(s)
         width = max(len(k) for k, _ in rows)
@@ -778,7 +791,12 @@ def main(args) -> int:
             {
                 "dataset": str(root),
                 "source": args.source,
-                "physics": asdict(physics) if mjcf is None else "the exported files'",
+                "engine": engine,
+                "physics": asdict(physx)
+                if engine == "physx"
+                else asdict(physics)
+                if mjcf is None
+                else "the exported files'",
                 "physics_version": version or PHYSICS_VERSION,
                 "stress": asdict(cfg),
                 "seconds": seconds,

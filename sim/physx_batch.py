@@ -223,6 +223,7 @@ class PhysxBatchSim:
         """Per env: how many of its pieces (the peg included) PhysX takes in parts."""
         self.mesh_parts = np.zeros(n, dtype=int)
         """Per env: how many parts of its pieces are triangle meshes (see _convex)."""
+        self._env_of: dict[int, int] = {}
         self.materials = []
         self.bodies = []
         self._entities = []
@@ -315,6 +316,10 @@ class PhysxBatchSim:
         drive.set_drive_property_slerp(0.0, kv_rot)
         peg.add_component(drive)
         self.scene.add_entity(peg)
+        self.kv = (kv_lin, kv_rot)
+        """The drive's linear and angular damping (the last env's: the stress benchmark
+        runs one module at a time)."""
+        self._env_of[id(body)] = e
         self.materials.append(material)
         self.bodies.append(body)
         self._entities.append(peg)
@@ -377,6 +382,58 @@ class PhysxBatchSim:
         ang = np.einsum("ni,ni->n", self.state[:, 11:], self.state[:, 11:])
         return ~np.isfinite(self.state).all(axis=1) | (lin > speed**2) | (ang > 100 * speed**2)
 
+    # ------------------------------------------------------------------ one physics step
+    # (the contact stress benchmark drives the pegs step by step)
+
+    def set_velocity_targets(self, velocity: np.ndarray) -> None:
+        """The drives' targets (num_envs, 6), held until changed."""
+        v = np.asarray(velocity, dtype=np.float32)
+        for e, drive in enumerate(self._drives):
+            drive.set_drive_velocity_target(v[e, :3], v[e, 3:])
+
+    def physics_step(self) -> None:
+        """One PhysX step; read the state with `read_state`."""
+        self.scene.step()
+        self._time += self.physx.timestep
+
+    def set_state(self, e: int, qpos: np.ndarray, qvel: np.ndarray) -> None:
+        """Env e's peg at qpos (position, quaternion w x y z) with qvel (the peg frame
+        origin's linear velocity in the module frame, angular velocity in the peg frame)."""
+        import sapien
+
+        q = qpos[3:] / np.linalg.norm(qpos[3:])
+        self._entities[e].pose = sapien.Pose(self.origin[e] + qpos[:3], q)
+        rot = _matrix(q)
+        w = rot @ qvel[3:]
+        com = rot @ np.asarray(self.bodies[e].cmass_local_pose.p, dtype=float)
+        self.bodies[e].set_angular_velocity(w)
+        self.bodies[e].set_linear_velocity(qvel[:3] + np.cross(w, com))
+
+    def set_drive(self, e: int, on: bool) -> None:
+        """Env e's velocity drive on (the task's gains) or off (a free peg)."""
+        kv_lin, kv_rot = self.kv if on else (0.0, 0.0)
+        d = self._drives[e]
+        d.set_drive_property_x(0.0, kv_lin)
+        d.set_drive_property_y(0.0, kv_lin)
+        d.set_drive_property_z(0.0, kv_lin)
+        d.set_drive_property_slerp(0.0, kv_rot)
+
+    def penetration(self) -> np.ndarray:
+        """(num_envs,) each peg's deepest penetration after the last step, m (0: none)."""
+        pen = np.zeros(self.num_envs)
+        for c in self.scene.get_contacts():
+            e = next((self._env_of.get(id(b)) for b in c.bodies if id(b) in self._env_of), None)
+            if e is None:
+                continue
+            for p in c.points:
+                pen[e] = max(pen[e], -float(p.separation))
+        return pen
+
+    def read_state(self) -> np.ndarray:
+        """The state after the last step (see the module docstring), read from PhysX."""
+        self._read()
+        return self.state
+
     def _read(self) -> None:
         s = self.state
         s[:, 0] = self._time
@@ -414,15 +471,19 @@ class PhysxBatchSim:
 
 def _rotate_inv(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """v (world) in the frame of the unit quaternion q = (w, x, y, z)."""
+    return _matrix(q).T @ v
+
+
+def _matrix(q: np.ndarray) -> np.ndarray:
+    """The rotation matrix of the unit quaternion q = (w, x, y, z)."""
     w, x, y, z = q
-    r = np.array(
+    return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
             [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
             [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
         ]
     )
-    return r.T @ v
 
 
 def _mujoco_like(task: TaskConfig):
