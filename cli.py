@@ -287,6 +287,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return _err("bench contacts needs a dataset: assetgen bench contacts DATASET")
         args.dataset = args.target
         try:
+            if args.sim == "physx":
+                from sim.contact_stress_physx import stress_physx
+
+                return contacts_main(args, stress_physx)
             return contacts_main(args)
         except (DatasetError, AssetError, ValueError) as e:
             return _err(str(e))

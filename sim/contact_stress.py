@@ -702,11 +702,12 @@ def format_summary(s: dict) -> list[tuple[str, str]]:
     return rows
 
 
-def main(args) -> int:
+def main(args, physx_stress: Callable | None = None) -> int:
     """`assetgen bench contacts DATASET`: args.dataset, args.limit, args.physics_version (an
     earlier version's settings; default: the project's for the dataset's clearance), args.set
     (PhysicsConfig overrides on top), args.source (sim or mjcf), args.cases, args.threads,
-    args.json (a file)."""
+    args.json (a file), args.sim (mujoco, or physx with `physx_stress`: the PhysX runner,
+    passed in so that this module does not import its own user)."""
     import sys
     from dataclasses import replace
 
@@ -760,12 +761,13 @@ def main(args) -> int:
                          "and --physics-version")  # fmt: skip
     t0 = time.perf_counter()
     if engine == "physx":
-        from sim.contact_stress_physx import stress_physx
         from sim.physx_config import PhysxConfig
 
+        if physx_stress is None:
+            raise ValueError("--sim physx: pass sim.contact_stress_physx.stress_physx")
         physx = PhysxConfig()
         task = TaskConfig(physics=physics)
-        records = stress_physx(assets, cfg, task, physx, progress=progress)
+        records = physx_stress(assets, cfg, task, physx, progress=progress)
     else:
         records = stress(assets, physics, cfg, mjcf=mjcf, nthread=args.threads, progress=progress)
     print(file=sys.stderr)
