@@ -221,3 +221,17 @@ def test_the_stress_benchmark_measures_physx_friction() -> None:
     for r in records:
         assert r["mu_effective"] == pytest.approx(r["mu"], rel=0.05), r
         assert 0 < r["slide_speed"] < cfg.friction_speed  # it slid, held back by friction
+
+
+def test_the_packed_state_is_what_each_body_says() -> None:
+    """PhysxBatchSim reads every peg from PhysX's packed copy (one call); it must agree with
+    the bodies' own pose and velocity properties."""
+    mods = load_dataset(_dataset())
+    env = PegInHoleVecEnv(mods, len(mods), _quiet(), engine="physx")
+    env.reset(seed=3)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        env.step(rng.uniform(-1, 1, (len(mods), 6)))
+    assert np.abs(env.sim.state[:, 8:]).max() > 1e-3, "the pegs must move"
+    # float32 copies: the same to float32 rounding
+    np.testing.assert_allclose(env.sim.state, env.sim._read_each(), rtol=1e-6, atol=1e-7)
