@@ -55,14 +55,16 @@ PAGES: tuple[Page, ...] = (
             "checkpoints/sac-direct-bc",
             "docs/results/runs/sac-direct-bc-s1",
             "docs/results/runs/sac-direct-bc-s2",
+            "checkpoints/dreamer-direct-bc",
+            "docs/results/runs/dreamer-direct-bc-s1",
         ),
         baselines=("docs/results/baselines",),
         readme=True,
     ),
     Page("shipped", runs=shipped_runs()),
 )
-"""taught: SAC taught by the direct expert, three seeds, next to the built-in agents and
-the paper (the README's table). shipped: every policy in checkpoints/."""
+"""taught: SAC and DreamerV3 taught by the direct expert, three seeds each, next to the
+built-in agents and the paper (the README's table). shipped: every policy in checkpoints/."""
 
 
 REFEREE: tuple[tuple[str, str, str, str], ...] = (
