@@ -57,6 +57,7 @@ PAGES: tuple[Page, ...] = (
             "docs/results/runs/sac-direct-bc-s2",
             "checkpoints/dreamer-direct-bc",
             "docs/results/runs/dreamer-direct-bc-s1",
+            "docs/results/runs/dreamer-direct-bc-s2",
         ),
         baselines=("docs/results/baselines",),
         readme=True,
