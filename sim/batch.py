@@ -71,7 +71,24 @@ def shard_layout(num_envs: int, shard_size: int) -> tuple[int, int]:
     return -(-num_envs // k), k
 
 
-class BatchSim:
+class PegStateViews:
+    """Views of a simulator's `state` (num_envs, 14) = [time, pos (3), quat (4), qvel (6)],
+    shared by BatchSim and the PhysX referee (sim/physx_batch.py)."""
+
+    state: np.ndarray
+
+    @property
+    def peg_pos(self) -> np.ndarray:
+        """(num_envs, 3) peg frame origin in the module frame, m (a view)."""
+        return self.state[:, 1:4]
+
+    @property
+    def peg_quat(self) -> np.ndarray:
+        """(num_envs, 4) peg frame orientation (w, x, y, z) in the module frame (a view)."""
+        return self.state[:, 4:8]
+
+
+class BatchSim(PegStateViews):
     """`num_envs` peg-in-hole scenes; state is (num_envs, nstate) = [time, qpos(7), qvel(6)].
 
     qpos of the free joint is the peg frame's pose in the module frame: position (3),
@@ -197,16 +214,6 @@ class BatchSim:
         self._ss_flat[self._flat] = self.state + self._offset
 
     # ------------------------------------------------------------------ state access
-
-    @property
-    def peg_pos(self) -> np.ndarray:
-        """(num_envs, 3) peg frame origin in the module frame, m (a view)."""
-        return self.state[:, 1:4]
-
-    @property
-    def peg_quat(self) -> np.ndarray:
-        """(num_envs, 4) peg frame orientation (w, x, y, z) in the module frame (a view)."""
-        return self.state[:, 4:8]
 
     @property
     def qvel(self) -> np.ndarray:

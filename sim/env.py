@@ -28,9 +28,8 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -569,5 +568,5 @@ def make_eval_env(
     }
     if engine == "physx":
         env.protocol["timestep"] = env.sim.physx.timestep
-        env.protocol["physx"] = dataclasses.asdict(env.sim.physx)
+        env.protocol["physx"] = asdict(env.sim.physx)
     return env

@@ -28,7 +28,8 @@ import numpy as np
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
 from sim.assets import AssetError, ModuleAsset
-from sim.config import TaskConfig
+from sim.batch import PegStateViews
+from sim.config import PhysicsConfig, TaskConfig
 from sim.physx_config import PhysxConfig
 from sim.usd_module import UsdModule, load_usd_module
 
@@ -172,7 +173,7 @@ def _planes(points: np.ndarray) -> np.ndarray:
     return ConvexHull(points).equations
 
 
-class PhysxBatchSim:
+class PhysxBatchSim(PegStateViews):
     """`num_envs` peg-in-hole scenes in one PhysX scene; the interface of sim.batch.BatchSim
     that PegInHoleVecEnv uses for evaluation (no module rotation, no saved env state)."""
 
@@ -185,6 +186,9 @@ class PhysxBatchSim:
         sapien = _sapien()
         px = sapien.physx
         self.task = task
+        self._controller = task.physics or PhysicsConfig()
+        """Where the drive's gains (tracking time constant, limits) and the runaway speed
+        come from: the task's MuJoCo physics, or the project's default."""
         self.physx = cfg = (physx or PhysxConfig()).validate(task.control_dt)
         self.num_envs = n = len(env_assets)
         if n >= 1 << 16:
@@ -248,7 +252,7 @@ class PhysxBatchSim:
         self.state = np.zeros((n, 14))
         self.state[:, 4] = 1.0
         for e in range(n):
-            self._write_pose(e, self.state[e, 1:4], self.state[e, 4:8])
+            self.set_state(e, self.state[e, 1:8], np.zeros(6))
         self._time = 0.0
 
     def _add_env(self, sapien, px, e: int, usd: UsdModule, asset: ModuleAsset) -> None:
@@ -309,7 +313,7 @@ class PhysxBatchSim:
         drive = px.PhysxDriveComponent(body)
         drive.set_pose_in_parent(sapien.Pose(self.origin[e]))
         kv_lin, kv_rot = velocity_gains(
-            asset.peg_mass, asset.peg_com, asset.peg_inertia, _mujoco_like(self.task),
+            asset.peg_mass, asset.peg_com, asset.peg_inertia, self._controller,
             self.task.max_lin_vel, self.task.max_ang_vel,
         )  # fmt: skip
         drive.set_drive_property_x(0.0, kv_lin)
@@ -329,23 +333,6 @@ class PhysxBatchSim:
 
     # ------------------------------------------------------------------ state access
 
-    @property
-    def peg_pos(self) -> np.ndarray:
-        """(num_envs, 3) peg frame origin in the module frame, m (a view)."""
-        return self.state[:, 1:4]
-
-    @property
-    def peg_quat(self) -> np.ndarray:
-        """(num_envs, 4) peg frame orientation (w, x, y, z) in the module frame (a view)."""
-        return self.state[:, 4:8]
-
-    def _write_pose(self, e: int, pos: np.ndarray, quat: np.ndarray) -> None:
-        import sapien
-
-        self._entities[e].pose = sapien.Pose(self.origin[e] + pos, quat)
-        self.bodies[e].set_linear_velocity(np.zeros(3))
-        self.bodies[e].set_angular_velocity(np.zeros(3))
-
     def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
         quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
@@ -353,7 +340,7 @@ class PhysxBatchSim:
             self.state[e, 1:4] = pos[j]
             self.state[e, 4:8] = quat[j]
             self.state[e, 8:14] = 0.0
-            self._write_pose(e, pos[j], quat[j])
+            self.set_state(e, self.state[e, 1:8], np.zeros(6))
 
     def set_material(
         self, idx: np.ndarray, static: np.ndarray, dynamic: np.ndarray, restitution: np.ndarray
@@ -379,7 +366,7 @@ class PhysxBatchSim:
             self.scene.step()
         self._time += self.task.control_dt
         self._read()
-        speed = self.task.physics.runaway_speed if self.task.physics else 10.0
+        speed = self._controller.runaway_speed
         lin = np.einsum("ni,ni->n", self.state[:, 8:11], self.state[:, 8:11])
         ang = np.einsum("ni,ni->n", self.state[:, 11:], self.state[:, 11:])
         return ~np.isfinite(self.state).all(axis=1) | (lin > speed**2) | (ang > 100 * speed**2)
@@ -505,11 +492,3 @@ def _matrix(q: np.ndarray) -> np.ndarray:
             [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
         ]
     )
-
-
-def _mujoco_like(task: TaskConfig):
-    """The PhysicsConfig whose controller settings (time constant, limits) the gains come
-    from: the task's, or the project's default."""
-    from assetgen.core.mujoco_config import PhysicsConfig
-
-    return task.physics or PhysicsConfig()
