@@ -27,6 +27,7 @@ import numpy as np
 
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
+from sim import step_kernel as K
 from sim.assets import AssetError, ModuleAsset
 from sim.batch import PegStateViews
 from sim.config import PhysicsConfig, TaskConfig
@@ -366,10 +367,9 @@ class PhysxBatchSim(PegStateViews):
             self.scene.step()
         self._time += self.task.control_dt
         self._read()
-        speed = self._controller.runaway_speed
-        lin = np.einsum("ni,ni->n", self.state[:, 8:11], self.state[:, 8:11])
-        ang = np.einsum("ni,ni->n", self.state[:, 11:], self.state[:, 11:])
-        return ~np.isfinite(self.state).all(axis=1) | (lin > speed**2) | (ang > 100 * speed**2)
+        unstable = np.empty(self.num_envs, dtype=bool)
+        K.check_unstable(self.state, K.Checks.of(self._controller), unstable)
+        return unstable
 
     # ------------------------------------------------------------------ one physics step
     # (the contact stress benchmark drives the pegs step by step)

@@ -328,6 +328,27 @@ def score(
             _observe_one(px, py, pz, w, x, y, z, i, rows, origin, e, i, noisy, ps, rot_std, obs)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _runaway(state: np.ndarray, e: int, lim: float, ang_lim: float) -> bool:
+    """Env e's peg faster than the runaway speed (squared limits; angular: 10x in rad/s)."""
+    lin = state[e, 8] ** 2 + state[e, 9] ** 2 + state[e, 10] ** 2
+    ang = state[e, 11] ** 2 + state[e, 12] ** 2 + state[e, 13] ** 2
+    return lin > lim or ang > ang_lim
+
+
+@njit(cache=True, nogil=True)
+def check_unstable(state: np.ndarray, checks: Checks, unstable: np.ndarray) -> None:
+    """gather's unstable test for an engine that has no shards: a state that is not finite
+    or a runaway peg."""
+    speed = checks.runaway_speed
+    lim, ang_lim = speed * speed, 100.0 * speed * speed
+    for e in range(state.shape[0]):
+        finite = True
+        for c in range(state.shape[1]):
+            finite = finite and math.isfinite(state[e, c])
+        unstable[e] = not finite or _runaway(state, e, lim, ang_lim)
+
+
 @njit(cache=True, nogil=True)
 def gather(
     shard_flat: np.ndarray,
@@ -355,9 +376,7 @@ def gather(
             finite = finite and math.isfinite(x)
         s = shard_of[e]
         stalled = abs(shard_flat[flat[e, 0]] - t0[s] - step) > 0.5 * dt
-        lin = state[e, 8] ** 2 + state[e, 9] ** 2 + state[e, 10] ** 2
-        ang = state[e, 11] ** 2 + state[e, 12] ** 2 + state[e, 13] ** 2
-        unstable[e] = not finite or stalled or lin > lim or ang > ang_lim
+        unstable[e] = not finite or stalled or _runaway(state, e, lim, ang_lim)
 
 
 @njit(cache=True, nogil=True)

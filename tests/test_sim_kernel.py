@@ -197,3 +197,20 @@ def test_scatter_and_gather_follow_the_flat_layout() -> None:
     K.gather(shard_flat, layout, t0, checks, out, unstable)
     np.testing.assert_array_equal(out, shard_flat[flat] - offset)
     assert unstable.tolist() == [True, False, True, True, True]
+
+
+def test_check_unstable_is_gathers_test_without_shards() -> None:
+    state = np.zeros((4, 14))
+    state[1, 5] = np.nan  # not finite
+    state[2, 9] = 11.0  # linear runaway
+    state[3, 12] = 99.0  # angular: under 10 x 10 rad/s
+    unstable = np.empty(4, dtype=bool)
+    K.check_unstable(
+        state, K.Checks(control_step=0.02, timestep=0.0005, runaway_speed=10.0), unstable
+    )
+    assert unstable.tolist() == [False, True, True, False]
+    state[3, 12] = 101.0
+    K.check_unstable(
+        state, K.Checks(control_step=0.02, timestep=0.0005, runaway_speed=10.0), unstable
+    )
+    assert unstable.tolist() == [False, True, True, True]
