@@ -456,6 +456,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--dataset", default="test", help="spec name or dataset folder")
     e.add_argument("--attempts", type=int, default=10, help="episodes per module")
     e.add_argument(
+        "--modules", type=int, default=None,
+        help="the dataset's first N modules (or assemblies) only (default: all, the protocol)",
+    )  # fmt: skip
+    e.add_argument(
         "--sim",
         choices=["mujoco", "physx"],
         default="mujoco",

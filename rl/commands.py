@@ -305,9 +305,14 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     engine = getattr(args, "sim", None) or "mujoco"
     # the engine reaches the env factory only when it is not the default one
     on_engine: dict[str, Any] = {} if engine == "mujoco" else {"engine": engine}
+    # a subset reaches the factories only when asked for: the protocol plays every module
+    limit = getattr(args, "modules", None)
+    subset: dict[str, Any] = {} if limit is None else {"modules": limit}
     try:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
+        if limit is not None and limit < 1:
+            raise ValueError(f"--modules {limit}: give at least 1 module, or leave it out")
         sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
         if sequence and on_engine:
             raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")
@@ -347,7 +352,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             if not sequence:
                 base = hooks.make_env(
                     args.dataset, args.envs, args.seed, noise_scale=noise_scale,
-                    keep_physics=keep, **on_engine,
+                    keep_physics=keep, **on_engine, **subset,
                 )  # fmt: skip
                 env = wrap(base)
             policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
@@ -371,8 +376,9 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 raise ValueError("--stochastic applies to --checkpoint policies only")
             if not sequence:
                 env = base = hooks.make_env(
-                    args.dataset, args.envs, args.seed, noise_scale=noise_scale, **on_engine
-                )
+                    args.dataset, args.envs, args.seed, noise_scale=noise_scale,
+                    **on_engine, **subset,
+                )  # fmt: skip
             policy = hooks.agents[args.agent](args.seed)
             head = {"agent": args.agent, "policy": hooks.policies.get(args.agent, "deterministic")}
             name = args.agent
@@ -382,6 +388,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 args.dataset, policy, args.episodes, seed=args.seed, reset=reset, wrap=wrap,
                 noise_scale=noise_scale, record=None if record is None else Path(record),
                 record_limit=getattr(args, "record_limit", None), keep_physics=keep,
+                **subset,
             )  # fmt: skip
             return _sequence_out(args, {**head, "dataset": str(args.dataset),
                                         "attempts": args.episodes, "seed": args.seed, **res},

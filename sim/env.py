@@ -566,6 +566,8 @@ def make_eval_env(
         "timestep": env.cfg.physics.timestep,
         "engine": engine,
     }
+    if ids is not None:
+        env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
     if engine == "physx":
         env.protocol["timestep"] = env.sim.physx.timestep
         env.protocol["physx"] = asdict(env.sim.physx)

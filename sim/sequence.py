@@ -309,10 +309,12 @@ def evaluate_assembly_dataset(
     record: Path | None = None,
     record_limit: int | None = None,
     keep_physics: bool = False,
+    modules: int | None = None,
 ) -> dict[str, Any]:
     """evaluate_sequence over every assembly of a dataset with the evaluation protocol's
     task config; the result names the dataset (folder and content hash) as `assetgen eval`'s
-    files do. keep_physics: as for sim.env.make_train_env."""
+    files do. keep_physics: as for sim.env.make_train_env. modules: the dataset's first
+    `modules` assemblies only (None: all, the protocol)."""
     from assetgen.dataset.reader import Dataset, content_hash
     from sim.assets import check_physics, dataset_root
     from sim.env import eval_config
@@ -322,8 +324,11 @@ def evaluate_assembly_dataset(
     ds = Dataset(root)
     if not ds.ids:
         raise AssetError(f"{root} holds no finished assemblies; generate them first")
+    if modules is not None and modules < 1:
+        raise ValueError(f"modules = {modules}: evaluate at least 1 assembly")
+    ids = ds.ids if modules is None else ds.ids[:modules]
     res = evaluate_sequence(
-        [ds.module_dir(m) for m in ds.ids], policy, attempts, config,
+        [ds.module_dir(m) for m in ids], policy, attempts, config,
         seed=seed, reset=reset, wrap=wrap, progress=progress, record=record,
         record_limit=record_limit,
     )  # fmt: skip
@@ -333,5 +338,6 @@ def evaluate_assembly_dataset(
         "family": ds.spec.family,
         "control_dt": config.control_dt,
         "noise_scale": noise_scale,
+        **({} if modules is None else {"modules": len(ids)}),
         **res,
     }

@@ -168,6 +168,14 @@ def test_eval_and_bench_sim(tiny_dataset, tmp_path):
     )
     random = json.loads(p.stdout.strip().splitlines()[-1])
     assert random["episodes"] == 6 and random["success_rate"] == 0.0
+    assert "modules" not in random  # the protocol plays every module
+    p = run("eval", "--agent", "random", "--dataset", str(tiny_dataset), "--attempts", "2",
+            "--modules", "2", "--json", check=True)  # fmt: skip
+    subset = json.loads(p.stdout.strip().splitlines()[-1])
+    assert subset["modules"] == 2 and subset["episodes"] == 4
+    assert sorted(subset["per_module"]) == sorted(random["per_module"])[:2]
+    bad = run("eval", "--agent", "random", "--dataset", str(tiny_dataset), "--modules", "0")
+    assert bad.returncode == 2 and "--modules 0" in bad.stderr
     p = run(
         "bench",
         "sim",

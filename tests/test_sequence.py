@@ -109,6 +109,12 @@ def test_assetgen_eval_on_an_assembly_dataset(assemblies, tmp_path, capsys) -> N
     saved = json.loads(out.read_text())
     assert saved["agent"] == "scripted" and saved["sequence"]["episodes"] == 2
     assert [s["part"] for s in saved["stages"]] == ["profile", "bolt"]
+    assert "modules" not in saved
+    code = main(["eval", "--agent", "scripted", "--dataset", str(assemblies), "--attempts", "1",
+                 "--modules", "1", "--out", str(out)])  # fmt: skip
+    assert code == 0, capsys.readouterr().out
+    saved = json.loads(out.read_text())
+    assert saved["modules"] == 1 and saved["sequence"]["episodes"] == 1
 
 
 def test_a_policy_of_another_observation_size_is_refused_before_the_run(
