@@ -69,12 +69,18 @@ built-in agents and the paper (the README's table). shipped: every policy in che
 
 
 REFEREE: tuple[tuple[str, str, str, str], ...] = (
+    ("scripted", "test", "docs/results/baselines/scripted_test.json",
+     "docs/results/referee/scripted_physx_test.json"),
     ("scripted-fast", "test", "docs/results/baselines/scripted-fast_test.json",
      "docs/results/referee/scripted-fast_physx_test.json"),
     ("scripted-direct", "test", "docs/results/baselines/scripted-direct_test.json",
      "docs/results/referee/scripted-direct_physx_test.json"),
     ("sac-direct-bc", "test", "checkpoints/sac-direct-bc/eval_test.json",
      "docs/results/referee/sac-direct-bc_physx_test.json"),
+    ("sac-fast-bc", "test", "checkpoints/sac-fast-bc/eval_test.json",
+     "docs/results/referee/sac-fast-bc_physx_test.json"),
+    ("dreamer-direct-bc", "test", "checkpoints/dreamer-direct-bc/eval_test.json",
+     "docs/results/referee/dreamer-direct-bc_physx_test.json"),
     ("scripted-direct", "test_c025", "docs/results/referee/scripted-direct_mujoco_test_c025.json",
      "docs/results/referee/scripted-direct_physx_test_c025.json"),
     ("sac-direct-bc", "test_c025", "checkpoints/sac-direct-bc/eval_test_c025.json",
@@ -108,6 +114,44 @@ def referee_table() -> str:
                 f"{100 * d['truncation_rate']:.2f} % | {100 * d['failure_rate']:.2f} % | "
                 f"{d.get('unstable', 0)} |"
             )
+    return "\n".join(rows) + "\n"
+
+
+ASSEMBLY: tuple[tuple[str, str], ...] = (
+    ("scripted expert", "docs/results/assembly/scripted_assembly_test.json"),
+    ("`sac-direct-bc`, zero-shot", "docs/results/assembly/sac-direct-bc_assembly_test.json"),
+    ("scripted expert", "docs/results/assembly/scripted_assembly_test_c1.json"),
+    ("`sac-direct-bc`, zero-shot", "docs/results/assembly/sac-direct-bc_assembly_test_c1.json"),
+)  # fmt: skip
+"""The assembly page: (agent, its sequence evaluation); rows whose files are missing are left
+out."""
+
+
+def assembly_table() -> str:
+    """The assembly sequences (docs/results/assembly/table.md), from the evaluation files."""
+    import json
+
+    rows = [
+        "| agent | split | assemblies × attempts | profile | bolt | sequence | profile failed "
+        "/ truncated | physics step | wall time |\n|---|---|---|---|---|---|---|---|---|"
+    ]
+    for agent, f in ASSEMBLY:
+        path = ROOT / f
+        if not path.exists():
+            continue
+        d = json.loads(path.read_text())
+        profile, bolt = d["stages"]
+        gaps = " / ".join(f"{1e3 * st['clearance_m'][0]:g}" for st in d["stages"])
+
+        def rate(st: dict) -> str:
+            return f"{100 * st['success_rate']:.2f} % ({st['median_time_to_success_s']:.2f} s)"
+
+        rows.append(
+            f"| {agent} | {d['dataset']} ({gaps} mm) | {d['assemblies']} × {d['attempts']} "
+            f"| {rate(profile)} | {rate(bolt)} | {rate(d['sequence'])} "
+            f"| {100 * profile['failure_rate']:.2f} / {100 * profile['truncation_rate']:.2f} % "
+            f"| {d['timestep'] * 1e3:g} ms | {d['seconds']:.0f} s |"
+        )
     return "\n".join(rows) + "\n"
 
 
@@ -152,16 +196,17 @@ def main(argv: list[str] | None = None) -> int:
         if page.readme:
             replace_table(ROOT / "README.md", table.read_text())
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
-    referee = RESULTS / "referee" / "table.md"
-    if args.check:
-        if not referee.exists() or referee.read_text() != referee_table():
-            stale.append("referee")
-    else:
+    for name, make in (("referee", referee_table), ("assembly", assembly_table)):
+        path = RESULTS / name / "table.md"
+        if args.check:
+            if not path.exists() or path.read_text() != make():
+                stale.append(name)
+            continue
         from assetgen.core.atomic_file import write_text
 
-        referee.parent.mkdir(parents=True, exist_ok=True)
-        write_text(referee, referee_table())
-        print(f"wrote {referee.relative_to(ROOT)}")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text(path, make())
+        print(f"wrote {path.relative_to(ROOT)}")
     if stale:
         print(f"stale: {', '.join(stale)}; run python -m benchmarks.results_pages", file=sys.stderr)
         return 1

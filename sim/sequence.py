@@ -315,6 +315,7 @@ def evaluate_assembly_dataset(
     task config; the result names the dataset (folder and content hash) as `assetgen eval`'s
     files do. keep_physics: as for sim.env.make_train_env. modules: the dataset's first
     `modules` assemblies only (None: all, the protocol)."""
+    from assetgen.core.mujoco_config import physics_from_record
     from assetgen.dataset.reader import Dataset, content_hash
     from sim.assets import check_physics, dataset_root
     from sim.env import eval_config
@@ -338,6 +339,8 @@ def evaluate_assembly_dataset(
         "family": ds.spec.family,
         "control_dt": config.control_dt,
         "noise_scale": noise_scale,
+        "physics_version": physics_from_record(ds.info.get("physics"))[0],
+        "timestep": config.physics.timestep,
         **({} if modules is None else {"modules": len(ids)}),
         **res,
     }

@@ -174,3 +174,27 @@ def test_physics_report_in_parallel_gives_the_same_figures(tiny_dataset, tmp_pat
             figures.pop("seconds")
         outs.append(doc)
     assert outs[0] == outs[1] and len(outs[0]["modules"]) == 2
+    assert outs[0]["complete"] is True
+
+
+def test_physics_report_stopped_part_way_keeps_the_modules_it_checked(
+    tiny_dataset, tmp_path, monkeypatch
+):
+    from assetgen.physics import report as physics_report
+
+    figures = {k: 0.0 for k in physics_report.LIMITS} | {"passed_through": 0.0, "unsettled": 0.0}
+    seen = []
+
+    def check(path):
+        seen.append(path)
+        if len(seen) == 3:
+            raise KeyboardInterrupt  # the user stops it at the third module
+        return figures
+
+    monkeypatch.setattr(physics_report, "check_module", check)
+    monkeypatch.setattr(physics_report, "SAVE_EVERY", 2)
+    out = tmp_path / "physics.json"
+    with pytest.raises(KeyboardInterrupt):
+        physics_report.report(tiny_dataset, limit=4, json_out=out, workers=1)
+    doc = json.loads(out.read_text())
+    assert doc["complete"] is False and sorted(doc["modules"]) == ["000000", "000001"]

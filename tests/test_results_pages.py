@@ -55,3 +55,18 @@ def test_referee_page_is_generated_from_its_files() -> None:
             if (ROOT / f).exists():
                 doc = json.loads((ROOT / f).read_text())
                 assert doc.get("engine", "mujoco") == engine and doc["dataset"] == split, f
+
+
+def test_assembly_page_is_generated_from_its_files() -> None:
+    from benchmarks.results_pages import ASSEMBLY, assembly_table
+
+    table = RESULTS / "assembly" / "table.md"
+    assert table.exists() and table.read_text() == assembly_table(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+    files = [ROOT / f for _, f in ASSEMBLY if (ROOT / f).exists()]
+    assert files, "the assembly page has no evaluation file"
+    for f in files:  # sequences of the current physics, named for their split
+        doc = json.loads(f.read_text())
+        assert doc["family"] == "profile-bolt" and f.stem.endswith("_" + doc["dataset"]), f
+        assert doc.get("physics_version") == PHYSICS_VERSION, f

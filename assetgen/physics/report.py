@@ -42,6 +42,8 @@ hold-down is below F tan a (1.5 N for 5 N); ~5 N keeps it on the floor with marg
 SIDE_FORCE = 5.0
 """N across the axis: the issue's "about 5 N"."""
 EVEN_DIRECTIONS = 8
+SAVE_EVERY = 16
+"""With --json, the figures so far are written every this many modules (`complete`: false)."""
 
 LIMITS: dict[str, float] = {
     "drop_rest_error": 0.2e-3,
@@ -232,6 +234,10 @@ def report(
             if bad := failures(figures):
                 failed[mid] = bad
             print(f"\r{i}/{len(ids)} modules, {len(failed)} failing", end="", file=sys.stderr)
+            if json_out and i % SAVE_EVERY == 0 and i < len(ids):
+                # an hours-long report stopped part-way keeps the modules it checked
+                write_json(json_out, {"modules": rows, "failed": failed, "complete": False},
+                           indent=1)  # fmt: skip
     print(file=sys.stderr)
     print(f"{'figure':28s} {'max':>12s}  {'limit':>8s}  module")
     for key in next(iter(rows.values())):
@@ -251,7 +257,7 @@ def report(
     print(f"{len(ids) - len(failed)}/{len(ids)} {what} pass")
     if json_out:
         # atomically: a report interrupted mid-write never replaces a finished one
-        write_json(json_out, {"modules": rows, "failed": failed}, indent=1)
+        write_json(json_out, {"modules": rows, "failed": failed, "complete": True}, indent=1)
     return 1 if failed else 0
 
 
