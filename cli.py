@@ -277,7 +277,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
     if getattr(args, "sim", "mujoco") != "mujoco" and args.what != "contacts":
-        return _err(f"bench {args.what} --sim {args.sim}: only `bench contacts` runs on PhysX")
+        return _err(
+            f"bench {args.what} --sim {args.sim}: only `bench sim` and `bench contacts` run on "
+            "PhysX"
+        )
     if args.what == "contacts":
         from assetgen.dataset.spec import DatasetError
         from sim.assets import AssetError
@@ -426,7 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--sim",
         choices=["mujoco", "physx"],
         default="mujoco",
-        help="contacts: the engine (physx: the referee, from the USD files; the physx extra)",
+        help="sim, contacts: the engine (physx: the referee, from the USD files; the physx extra)",
     )
     b.add_argument(
         "--push-time", type=float, default=None, help="contacts: seconds a push lasts (1.5)"

@@ -1,8 +1,9 @@
-"""Throughput of the vector env next to raw `mujoco.rollout` on the same models.
+"""Throughput of the vector env next to raw `mujoco.rollout` on the same models (or, on
+PhysX, next to the referee's own control steps without the env layer).
 
 Wiring for the CLI: `bench_main(args)` for
     assetgen bench sim [--envs 1024] [--steps 200] [--dataset test] [--threads N]
-                       [--json]
+                       [--sim mujoco|physx] [--json]
 """
 
 from __future__ import annotations
@@ -94,27 +95,100 @@ def bench_sim(
     }
 
 
+def bench_physx(
+    dataset: str | Path,
+    envs: int = 1024,
+    steps: int = 200,
+    *,
+    config: TaskConfig = EVAL_CONFIG,
+    rounds: int = 10,
+    seed: int = 0,
+) -> dict:
+    """bench_sim on PhysX (the referee): one env per module of the dataset's first `envs`,
+    env steps/s with random actions next to the same control steps of the PhysX scene alone
+    (drive targets, the physics steps, the state read; no observation, reward, noise or
+    reset), in `rounds` interleaved rounds. The same keys as bench_sim's where they apply;
+    the raw figures are PhysX's."""
+    from assetgen.dataset.reader import Dataset
+    from sim.assets import load_dataset
+
+    if envs < 1:
+        raise ValueError(f"envs = {envs}: give at least 1")
+    t0 = time.perf_counter()
+    ids = Dataset(dataset).ids[:envs]
+    env = PegInHoleVecEnv(load_dataset(dataset, ids), len(ids), config, assignment_seed=seed,
+                          engine="physx")  # fmt: skip
+    build_s = time.perf_counter() - t0
+    n_env = env.num_envs
+    scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    for _ in range(min(10, steps)):  # warm-up
+        env.step(rng.uniform(-1, 1, (n_env, 6)))
+    per_round = max(1, steps // rounds)
+    actions = [rng.uniform(-1, 1, (n_env, 6)) for _ in range(per_round)]
+    wall = {"env": 0.0, "raw": 0.0}
+    cpu = {"env": 0.0, "raw": 0.0}
+    for _ in range(rounds):
+        t, c = time.perf_counter(), time.process_time()
+        for a in actions:
+            env.step(a)
+        wall["env"] += time.perf_counter() - t
+        cpu["env"] += time.process_time() - c
+        t, c = time.perf_counter(), time.process_time()
+        for a in actions:
+            env.sim.step(a * scale)
+        wall["raw"] += time.perf_counter() - t
+        cpu["raw"] += time.process_time() - c
+    substeps = env.sim.substeps
+    env.close()
+    n = n_env * per_round * rounds
+    return {
+        "engine": "physx",
+        "envs": n_env,
+        "steps": per_round * rounds,
+        "threads": 1,
+        "modules": n_env,
+        "timestep": env.sim.physx.timestep,
+        "build_s": build_s,
+        "env_steps_per_s": n / wall["env"],
+        "rollout_steps_per_s": n / wall["raw"],
+        "physics_steps_per_s": n * substeps / wall["raw"],
+        "env_over_rollout": wall["raw"] / wall["env"],
+        "env_steps_per_cpu_s": n / cpu["env"],
+        "rollout_steps_per_cpu_s": n / cpu["raw"],
+    }
+
+
 def bench_main(args: argparse.Namespace) -> int:
     """`assetgen bench sim`: args.envs, and optionally args.steps, args.dataset (default
     `test`), args.threads, args.shard_size, args.json. Prints a short table (or JSON)."""
     from assetgen.dataset.spec import resolve
 
     root, _ = resolve(getattr(args, "dataset", None) or "test")
-    res = bench_sim(
-        root,
-        getattr(args, "envs", None) or 1024,
-        getattr(args, "steps", None) or 200,
-        nthread=getattr(args, "threads", None),
-        shard_size=getattr(args, "shard_size", None) or 8,
-    )
+    engine = getattr(args, "sim", None) or "mujoco"
+    if engine == "physx":
+        res = bench_physx(root, getattr(args, "envs", None) or 1024,
+                          getattr(args, "steps", None) or 200)  # fmt: skip
+    else:
+        res = bench_sim(
+            root,
+            getattr(args, "envs", None) or 1024,
+            getattr(args, "steps", None) or 200,
+            nthread=getattr(args, "threads", None),
+            shard_size=getattr(args, "shard_size", None) or 8,
+        )
     if getattr(args, "json", False):
         print(json.dumps(res))
         return 0
     rows = [
         ("envs / modules / threads", f"{res['envs']} / {res['modules']} / {res['threads']}"),
-        ("envs per model (shard)", str(res["shard_size"])),
+        *([("envs per model (shard)", str(res["shard_size"]))] if "shard_size" in res else []),
         ("env steps/s (random actions)", f"{res['env_steps_per_s']:,.0f}"),
-        ("raw rollout steps/s", f"{res['rollout_steps_per_s']:,.0f}"),
+        (
+            "raw PhysX control steps/s" if engine == "physx" else "raw rollout steps/s",
+            f"{res['rollout_steps_per_s']:,.0f}",
+        ),
         ("physics steps/s", f"{res['physics_steps_per_s']:,.0f}"),
         ("env / raw", f"{res['env_over_rollout']:.2f}"),
         (

@@ -235,3 +235,18 @@ def test_the_packed_state_is_what_each_body_says() -> None:
     assert np.abs(env.sim.state[:, 8:]).max() > 1e-3, "the pegs must move"
     # float32 copies: the same to float32 rounding
     np.testing.assert_allclose(env.sim.state, env.sim._read_each(), rtol=1e-6, atol=1e-7)
+
+
+def test_bench_sim_runs_on_physx() -> None:
+    """`assetgen bench sim --sim physx`: the env's rate next to the PhysX scene's own control
+    steps, one env per module of the first `envs`."""
+    from sim.bench import bench_physx
+
+    res = bench_physx(_dataset(), envs=2, steps=4, rounds=2)
+    assert res["engine"] == "physx" and res["envs"] == res["modules"] == 2
+    assert res["steps"] == 4 and res["timestep"] == PhysxConfig().timestep
+    assert res["env_steps_per_s"] > 0 and res["rollout_steps_per_s"] > 0
+    # 20 physics steps per 20 ms control step at 1 ms
+    assert res["physics_steps_per_s"] == pytest.approx(res["rollout_steps_per_s"] * 20)
+    with pytest.raises(ValueError, match="envs = 0"):
+        bench_physx(_dataset(), envs=0)
