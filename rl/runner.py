@@ -297,8 +297,21 @@ def _finite(agent: Agent) -> bool:
     )
 
 
+def env_physics(env: Any) -> dict[str, Any] | None:
+    """The simulator's physics settings of `env` (through wrappers such as StackObs), or None
+    for an env without them (a toy env)."""
+    while env is not None:
+        physics = getattr(getattr(env, "cfg", None), "physics", None)
+        if physics is not None:
+            return asdict(physics)
+        env = getattr(env, "env", None)
+    return None
+
+
 def run_meta(algo: str, config: AlgoConfig, env: VecEnv, stack: int, seed: int) -> dict[str, Any]:
-    """What must match between a checkpoint and the run that resumes it."""
+    """What must match between a checkpoint and the run that resumes it (the env's physics
+    among it: a run continued on a dataset of other physics would mix two tasks)."""
+    physics = env_physics(env)
     return _jsonable(
         {
             "algo": algo,
@@ -308,6 +321,7 @@ def run_meta(algo: str, config: AlgoConfig, env: VecEnv, stack: int, seed: int) 
             "stack": stack,
             "num_envs": env.num_envs,
             "seed": seed,
+            **({} if physics is None else {"physics": physics}),
         }
     )
 
@@ -509,7 +523,15 @@ def train(
                 f"{path} is an exported policy (`assetgen export`): without its optimiser "
                 "states and replay it evaluates but cannot resume; resume the original run"
             )
-        ckpt.check_compatible(doc["run"], meta, path)
+        wanted = meta
+        if "physics" in meta and "physics" not in doc["run"]:
+            # written before runs recorded their physics: it cannot be checked
+            console.print(
+                f"[yellow]{path} does not record its physics; resuming it on this dataset's "
+                f"(timestep {meta['physics']['timestep']} s)[/]"
+            )
+            wanted = {k: v for k, v in meta.items() if k != "physics"}
+        ckpt.check_compatible(doc["run"], wanted, path)
         ckpt.load_modules(agent.modules(), doc["agent"], tensors)
         extra = doc["agent_extra"]
         agent.load_extra_state(ckpt.unpack(extra["tensors"], tensors), extra["values"])

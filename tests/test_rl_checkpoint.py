@@ -96,6 +96,38 @@ def test_resume_of_another_configuration_raises(tmp_path) -> None:
         _run(tmp_path / "empty", resume=True)
 
 
+def test_resume_on_other_physics_is_refused_and_names_what_differs(tmp_path) -> None:
+    """A run records its env's physics; resumed on a dataset of other physics (another
+    version's timestep and contact), it is refused with the fields that differ. A run that
+    predates the record resumes with a warning."""
+    from types import SimpleNamespace
+
+    from assetgen.core.mujoco_config import PhysicsConfig, physics_for
+
+    def env(physics=None):
+        e = ToyEnv(4)
+        if physics is not None:
+            e.cfg = SimpleNamespace(physics=physics)
+        return e
+
+    now = physics_for(0.001)
+    v1 = PhysicsConfig(timestep=0.005, substeps=4, contact_timeconst=0.005)
+    train("ppo", env(v1), SETUP, seed=0, out_dir=tmp_path / "v1", progress=False,
+          tensorboard=False)  # fmt: skip
+    with pytest.raises(ckpt.CheckpointError) as e:
+        train("ppo", env(now), SETUP, seed=0, out_dir=tmp_path / "v1", resume=True, steps=64,
+              progress=False, tensorboard=False)  # fmt: skip
+    message = str(e.value)
+    assert "physics.timestep: checkpoint 0.005, now 0.0005" in message
+    assert "physics.contact_timeconst: checkpoint 0.005, now 0.001" in message
+    assert "physics.friction" not in message  # only what differs
+    train("ppo", env(), SETUP, seed=0, out_dir=tmp_path / "old", progress=False,
+          tensorboard=False)  # fmt: skip
+    res = train("ppo", env(now), SETUP, seed=0, out_dir=tmp_path / "old", resume=True,
+                steps=64, progress=False, tensorboard=False)  # fmt: skip
+    assert res["status"] == "done"
+
+
 def test_check_compatible_lists_every_difference() -> None:
     with pytest.raises(ckpt.CheckpointError) as e:
         ckpt.check_compatible({"a": 1, "c": {"x": 1}}, {"a": 2, "c": {"x": 1, "y": 2}}, "p")
