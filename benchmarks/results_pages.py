@@ -114,6 +114,29 @@ def referee_table() -> str:
                 f"{100 * d['truncation_rate']:.2f} % | {100 * d['failure_rate']:.2f} % | "
                 f"{d.get('unstable', 0)} |"
             )
+    rows += [
+        "",
+        "The transfer, module by module: on the modules both files evaluated, the success rate in "
+        "each engine (each module weighted alike), PhysX's minus MuJoCo's, and how many modules "
+        "fell short of 100 % in one engine, the other or both (a module played 10 times falls "
+        "short more easily than one played twice).",
+        "",
+        "| agent | split | modules | MuJoCo | PhysX | gap | short in both | MuJoCo only "
+        "| PhysX only |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for agent, split, mujoco, physx in REFEREE:
+        if not ((ROOT / mujoco).exists() and (ROOT / physx).exists()):
+            continue
+        m, p = (json.loads((ROOT / f).read_text())["per_module"] for f in (mujoco, physx))
+        common = sorted(set(m) & set(p))
+        rm, rp = (sum(r[k] for k in common) / len(common) for r in (m, p))
+        short = [(m[k] < 1, p[k] < 1) for k in common]
+        rows.append(
+            f"| {agent} | {split} | {len(common)} | {100 * rm:.2f} % | {100 * rp:.2f} % "
+            f"| {100 * (rp - rm):+.2f} | {short.count((True, True))} "
+            f"| {short.count((True, False))} | {short.count((False, True))} |"
+        )
     return "\n".join(rows) + "\n"
 
 
