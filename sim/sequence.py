@@ -323,6 +323,8 @@ def evaluate_assembly_dataset(
     root = dataset_root(dataset)
     config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     ds = Dataset(root)
+    # what the files carry: the simulator's own physics unless told to keep other physics
+    version, physics = physics_from_record(ds.info.get("physics"))
     if not ds.ids:
         raise AssetError(f"{root} holds no finished assemblies; generate them first")
     if modules is not None and modules < 1:
@@ -339,8 +341,8 @@ def evaluate_assembly_dataset(
         "family": ds.spec.family,
         "control_dt": config.control_dt,
         "noise_scale": noise_scale,
-        "physics_version": physics_from_record(ds.info.get("physics"))[0],
-        "timestep": config.physics.timestep,
+        "physics_version": version,
+        "timestep": (config.physics or physics).timestep,
         **({} if modules is None else {"modules": len(ids)}),
         **res,
     }

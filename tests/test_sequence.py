@@ -10,6 +10,7 @@ import json
 import numpy as np
 import pytest
 
+from assetgen.core.mujoco_config import PHYSICS_VERSION
 from assetgen.core.rotations import matrix_to_quat
 from rl.commands import EvalHooks, eval_main
 from sim.assembly_assets import AssemblyStages
@@ -110,6 +111,7 @@ def test_assetgen_eval_on_an_assembly_dataset(assemblies, tmp_path, capsys) -> N
     assert saved["agent"] == "scripted" and saved["sequence"]["episodes"] == 2
     assert [s["part"] for s in saved["stages"]] == ["profile", "bolt"]
     assert "modules" not in saved
+    assert saved["physics_version"] == PHYSICS_VERSION and saved["timestep"] == 0.00025
     code = main(["eval", "--agent", "scripted", "--dataset", str(assemblies), "--attempts", "1",
                  "--modules", "1", "--out", str(out)])  # fmt: skip
     assert code == 0, capsys.readouterr().out
