@@ -523,10 +523,10 @@ def _train_env(*args, **kwargs):
     return make_train_env(*args, **kwargs)
 
 
-def _probe_env(dataset: str, modules: int, keep_physics: bool = False):
+def _probe_env(dataset: str, modules: int, keep_physics: bool = False, **engine):
     from sim import make_eval_env
 
-    return make_eval_env(dataset, None, 0, modules=modules, keep_physics=keep_physics)
+    return make_eval_env(dataset, None, 0, modules=modules, keep_physics=keep_physics, **engine)
 
 
 def _expert(name: str):

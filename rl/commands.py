@@ -121,6 +121,13 @@ def add_train_parser(
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
     p.add_argument(
+        "--sim",
+        choices=["mujoco", "physx"],
+        default="mujoco",
+        help="physics engine: MuJoCo (the simulator) or PhysX (the referee, one env per module: "
+        "--envs must cover the dataset; the physx extra)",
+    )
+    p.add_argument(
         "--curriculum-steps",
         type=int,
         help="env steps over which spawn ranges grow to full (default: the preset's; 0: off)",
@@ -212,6 +219,9 @@ def train_main(
             teacher = teachers[demos]()
         overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
         keep = bool(getattr(args, "keep_dataset_physics", False))
+        # the engine reaches the env factories only when it is not the default one
+        sim = getattr(args, "sim", None) or "mujoco"
+        on_engine: dict[str, Any] = {} if sim == "mujoco" else {"engine": sim}
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
             from rl.probe import make_probe
@@ -222,7 +232,8 @@ def train_main(
                 raise ValueError("--probe-steps: this env offers no evaluation env to probe")
             if args.probe_modules < 1:
                 raise ValueError(f"--probe-modules {args.probe_modules}: give at least 1")
-            probe_env = make_probe_env(args.dataset, args.probe_modules, keep_physics=keep)
+            probe_env = make_probe_env(args.dataset, args.probe_modules, keep_physics=keep,
+                                       **on_engine)  # fmt: skip
             probe = make_probe(probe_env, args.probe_attempts, args.stack)
         env = make_env(
             args.dataset,
@@ -230,6 +241,7 @@ def train_main(
             args.seed,
             curriculum_steps=curriculum,
             keep_physics=keep,
+            **on_engine,
         )
         result = train(
             args.algo,
@@ -243,7 +255,7 @@ def train_main(
             stack=args.stack,
             device=args.device,
             progress=not args.no_progress,
-            env_options={"curriculum_steps": curriculum},
+            env_options={"curriculum_steps": curriculum, **on_engine},
             teacher=teacher,
             demos=demos,
             overrides=overrides,

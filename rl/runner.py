@@ -52,7 +52,7 @@ from rl.presets import AlgoConfig, Setup, get_setup
 from rl.random_agent import RandomAgent, RandomConfig
 from rl.sac import SAC, SACConfig
 from rl.stack import StackObs
-from rl.vec_env import VecEnv
+from rl.vec_env import VecEnv, is_stateful
 
 ALGOS: dict[str, type] = {
     "ppo": PPOConfig,
@@ -348,7 +348,7 @@ def save_run(
         "env": None,
         "versions": {"torch": torch.__version__, "numpy": np.__version__},
     }
-    if hasattr(env, "get_state"):
+    if is_stateful(env):
         doc["env"] = {
             "state": ckpt.pack(env.get_state(), "env", tensors),
             "obs": ckpt.pack(np.asarray(obs), "obs", tensors),
@@ -514,7 +514,7 @@ def train(
     stats = EpisodeStats(max(100, n))
     iteration = env_steps = 0
     wall = 0.0
-    stateful = hasattr(env, "get_state") and hasattr(env, "set_state")
+    stateful = is_stateful(env)
 
     if resume:
         tensors, doc = ckpt.load(path)

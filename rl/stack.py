@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from rl.vec_env import StepResult, VecEnv
+from rl.vec_env import StepResult, VecEnv, is_stateful
 
 
 class StackObs:
@@ -33,7 +33,7 @@ class StackObs:
         self.control_dt = getattr(env, "control_dt", float("nan"))
         # history (N, K, obs_dim): [:, 0] the newest observation
         self._hist = np.zeros((env.num_envs, k, env.obs_dim), dtype=np.float32)
-        if hasattr(env, "get_state") and hasattr(env, "set_state"):
+        if is_stateful(env):
             self.get_state = self._get_state
             self.set_state = self._set_state
 

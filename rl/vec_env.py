@@ -23,7 +23,8 @@ first observation of that env's next episode. Other info keys are allowed and ig
 Exact resume (optional): an env that also has `get_state() -> dict` and
 `set_state(state: dict)` (values: numpy arrays or JSON-able scalars, lists and dicts,
 e.g. physics state, RNG state, episode counters, curriculum counter) is checkpointed with
-the agent and resumed mid-episode. Without them the runner re-seeds the env with
+the agent and resumed mid-episode, unless it sets `stateful = False` (an engine whose state
+cannot be saved, such as PhysX's scene). Without them the runner re-seeds the env with
 `reset(seed=...)` at every checkpoint boundary, which makes resume exact for any env
 whose trajectories depend only on that seed and the actions.
 """
@@ -73,6 +74,13 @@ class StatefulVecEnv(VecEnv, Protocol):
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a state returned by `get_state` (on an env built the same way)."""
         ...
+
+
+def is_stateful(env: Any) -> bool:
+    """Whether `env` saves and restores its state (StatefulVecEnv): it has both methods and
+    does not say otherwise (`stateful = False`: an env whose engine cannot, e.g. PhysX)."""
+    has = hasattr(env, "get_state") and hasattr(env, "set_state")
+    return has and bool(getattr(env, "stateful", True))
 
 
 def check_step(env: VecEnv, result: StepResult) -> None:

@@ -132,6 +132,9 @@ class PegInHoleVecEnv:
         else:
             self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt
+        self.stateful = engine == "mujoco"
+        """Whether get_state / set_state work (rl/vec_env.py's is_stateful): MuJoCo's state is
+        arrays; PhysX's scene is not saved, so a run on it resumes from a fresh reset."""
         self.protocol: dict[str, Any] = {}
         """How this env evaluates, for evaluation files (make_eval_env fills it)."""
 
@@ -488,18 +491,22 @@ def make_train_env(
     seed: int,
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
+    engine: str = "mujoco",
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
     paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
-    simulated with the physics its files carry)."""
+    simulated with the physics its files carry). engine: mujoco, or physx (the referee: one
+    env per module, so num_envs must cover the dataset's modules)."""
     root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
-    return PegInHoleVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
+    return PegInHoleVecEnv(
+        root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
+    )
 
 
 def eval_config(noise_scale: float = 1.0) -> TaskConfig:

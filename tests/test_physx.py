@@ -250,3 +250,30 @@ def test_bench_sim_runs_on_physx() -> None:
     assert res["physics_steps_per_s"] == pytest.approx(res["rollout_steps_per_s"] * 20)
     with pytest.raises(ValueError, match="envs = 0"):
         bench_physx(_dataset(), envs=0)
+
+
+def test_train_runs_on_physx_from_the_command_line(tmp_path: Path) -> None:
+    """`assetgen train --sim physx`: one env per module, the engine recorded with the run;
+    fewer envs than modules are refused in one line."""
+    import json
+    import subprocess
+    import sys
+
+    repo = Path(__file__).resolve().parents[1]
+
+    def train(envs: int, out: Path) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "cli", "train", "--algo", "ppo", "--preset", "debug",
+             "--dataset", str(_dataset()), "--envs", str(envs), "--steps", "48", "--sim",
+             "physx", "--out", str(out), "--no-progress", "--json", "--threads", "1"],
+            capture_output=True, text=True, cwd=repo,
+        )  # fmt: skip
+
+    r = train(3, tmp_path / "run")
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert json.loads(r.stdout.strip().splitlines()[-1])["env_steps"] >= 48
+    config = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert config["env_options"]["engine"] == "physx"
+    r = train(2, tmp_path / "few")
+    assert r.returncode == 2 and "one env per module" in r.stderr, r.stderr[-2000:]
+    assert "Traceback" not in r.stderr
