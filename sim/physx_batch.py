@@ -409,14 +409,21 @@ class PhysxBatchSim(PegStateViews):
 
     def penetration(self) -> np.ndarray:
         """(num_envs,) each peg's deepest penetration after the last step, m (0: none)."""
-        pen = np.zeros(self.num_envs)
+        # hundreds of pairs a step lie within the contact offset: the loop is kept lean (it
+        # was 1.5 times PhysX's own step in the stress benchmark)
+        pen = [0.0] * self.num_envs
+        env_of = self._env_of
         for c in self.scene.get_contacts():
-            e = next((self._env_of.get(id(b)) for b in c.bodies if id(b) in self._env_of), None)
+            b0, b1 = c.bodies
+            e = env_of.get(id(b0))
             if e is None:
-                continue
-            for p in c.points:
-                pen[e] = max(pen[e], -float(p.separation))
-        return pen
+                e = env_of.get(id(b1))
+                if e is None:
+                    continue
+            deepest = -min((p.separation for p in c.points), default=0.0)
+            if deepest > pen[e]:
+                pen[e] = deepest
+        return np.array(pen)
 
     def read_state(self) -> np.ndarray:
         """The state after the last step (see the module docstring), read from PhysX."""
