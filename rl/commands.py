@@ -181,6 +181,13 @@ def add_train_parser(
     return p
 
 
+def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """`engine=` for the env factories from --sim, only when it is not the default engine
+    (factories written before the flag need not take it)."""
+    engine = getattr(args, "sim", None) or "mujoco"
+    return {} if engine == "mujoco" else {"engine": engine}
+
+
 def train_main(
     args: argparse.Namespace,
     make_env: MakeEnv,
@@ -219,9 +226,7 @@ def train_main(
             teacher = teachers[demos]()
         overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
         keep = bool(getattr(args, "keep_dataset_physics", False))
-        # the engine reaches the env factories only when it is not the default one
-        sim = getattr(args, "sim", None) or "mujoco"
-        on_engine: dict[str, Any] = {} if sim == "mujoco" else {"engine": sim}
+        on_engine = _engine_kwargs(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
             from rl.probe import make_probe
@@ -315,8 +320,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     record = getattr(args, "record", None)
     keep = bool(getattr(args, "keep_dataset_physics", False))
     engine = getattr(args, "sim", None) or "mujoco"
-    # the engine reaches the env factory only when it is not the default one
-    on_engine: dict[str, Any] = {} if engine == "mujoco" else {"engine": engine}
+    on_engine = _engine_kwargs(args)
     # a subset reaches the factories only when asked for: the protocol plays every module
     limit = getattr(args, "modules", None)
     subset: dict[str, Any] = {} if limit is None else {"modules": limit}

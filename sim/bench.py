@@ -11,13 +11,61 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from mujoco import rollout
 
 from sim.config import EVAL_CONFIG, TaskConfig
 from sim.env import PegInHoleVecEnv
+
+
+def _random_actions(env: PegInHoleVecEnv, steps: int, rounds: int, seed: int) -> list:
+    """Reset `env`, warm it up with random actions, and return one round's random actions
+    (steps // rounds of them, at least one)."""
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    for _ in range(min(10, steps)):  # warm-up
+        env.step(rng.uniform(-1, 1, (env.num_envs, 6)))
+    return [rng.uniform(-1, 1, (env.num_envs, 6)) for _ in range(max(1, steps // rounds))]
+
+
+def _interleaved(
+    rounds: int,
+    env_round: Callable[[], None],
+    raw_round: Callable[[Any], None],
+    before_raw: Callable[[], Any] = lambda: None,
+) -> tuple[dict[str, float], dict[str, float]]:
+    """Wall and CPU seconds of `rounds` env rounds and raw rounds taken in turn (a busy
+    neighbour hits both the same); each raw round gets what `before_raw`, run untimed after
+    the env round, returns."""
+    wall = {"env": 0.0, "raw": 0.0}
+    cpu = {"env": 0.0, "raw": 0.0}
+
+    def timed(key: str, run: Callable[..., None], *args: Any) -> None:
+        t, c = time.perf_counter(), time.process_time()
+        run(*args)
+        wall[key] += time.perf_counter() - t
+        cpu[key] += time.process_time() - c
+
+    for _ in range(rounds):
+        timed("env", env_round)
+        timed("raw", raw_round, before_raw())
+    return wall, cpu
+
+
+def _rates(n: int, substeps: int, wall: dict, cpu: dict) -> dict[str, float]:
+    """The figures of `n` env steps (each `substeps` physics steps) timed by _interleaved."""
+    return {
+        "env_steps_per_s": n / wall["env"],
+        "rollout_steps_per_s": n / wall["raw"],
+        "physics_steps_per_s": n * substeps / wall["raw"],
+        "env_over_rollout": wall["raw"] / wall["env"],
+        "env_steps_per_cpu_s": n / cpu["env"],
+        "rollout_steps_per_cpu_s": n / cpu["raw"],
+    }
 
 
 def bench_sim(
@@ -51,47 +99,34 @@ def bench_sim(
     sim = env.sim
     substeps = env.cfg.physics.substeps
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
-    rng = np.random.default_rng(seed)
-    env.reset(seed=seed)
-    for _ in range(min(10, steps)):  # warm-up
-        env.step(rng.uniform(-1, 1, (envs, 6)))
-    per_round = max(1, steps // rounds)
-    actions = [rng.uniform(-1, 1, (envs, 6)) for _ in range(per_round)]
+    actions = _random_actions(env, steps, rounds, seed)
     controls = [sim.shard_control(a * scale).copy() for a in actions]
     out = np.empty((len(sim.models), substeps, sim.shard_state.shape[1]))
-    wall = {"env": 0.0, "raw": 0.0}
-    cpu = {"env": 0.0, "raw": 0.0}
+
+    def env_round() -> None:
+        for a in actions:
+            env.step(a)
+
     with rollout.Rollout(nthread=sim.nthread if sim.nthread > 1 else 0) as pool:
-        for _ in range(rounds):
-            t, c = time.perf_counter(), time.process_time()
-            for a in actions:
-                env.step(a)
-            wall["env"] += time.perf_counter() - t
-            cpu["env"] += time.process_time() - c
-            state = sim.shard_state.copy()
-            t, c = time.perf_counter(), time.process_time()
+
+        def raw_round(state: np.ndarray) -> None:  # from the env's current states
             for u in controls:
                 pool.rollout(
                     sim.models, sim.datas, state, u, nstep=substeps, state=out, skip_checks=True
                 )
                 state = out[:, -1].copy()
-            wall["raw"] += time.perf_counter() - t
-            cpu["raw"] += time.process_time() - c
+
+        wall, cpu = _interleaved(rounds, env_round, raw_round, sim.shard_state.copy)
     env.close()
-    n = envs * per_round * rounds
+    n = envs * len(actions) * rounds
     return {
         "envs": envs,
-        "steps": per_round * rounds,
+        "steps": len(actions) * rounds,
         "threads": sim.nthread,
         "shard_size": sim.shard_size,
         "modules": len(env.module_ids),
         "build_s": build_s,
-        "env_steps_per_s": n / wall["env"],
-        "rollout_steps_per_s": n / wall["raw"],
-        "physics_steps_per_s": n * substeps / wall["raw"],
-        "env_over_rollout": wall["raw"] / wall["env"],
-        "env_steps_per_cpu_s": n / cpu["env"],
-        "rollout_steps_per_cpu_s": n / cpu["raw"],
+        **_rates(n, substeps, wall, cpu),
     }
 
 
@@ -119,44 +154,29 @@ def bench_physx(
     env = PegInHoleVecEnv(load_dataset(dataset, ids), len(ids), config, assignment_seed=seed,
                           engine="physx")  # fmt: skip
     build_s = time.perf_counter() - t0
-    n_env = env.num_envs
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
-    rng = np.random.default_rng(seed)
-    env.reset(seed=seed)
-    for _ in range(min(10, steps)):  # warm-up
-        env.step(rng.uniform(-1, 1, (n_env, 6)))
-    per_round = max(1, steps // rounds)
-    actions = [rng.uniform(-1, 1, (n_env, 6)) for _ in range(per_round)]
-    wall = {"env": 0.0, "raw": 0.0}
-    cpu = {"env": 0.0, "raw": 0.0}
-    for _ in range(rounds):
-        t, c = time.perf_counter(), time.process_time()
+    actions = _random_actions(env, steps, rounds, seed)
+
+    def env_round() -> None:
         for a in actions:
             env.step(a)
-        wall["env"] += time.perf_counter() - t
-        cpu["env"] += time.process_time() - c
-        t, c = time.perf_counter(), time.process_time()
+
+    def raw_round(_: Any) -> None:
         for a in actions:
             env.sim.step(a * scale)
-        wall["raw"] += time.perf_counter() - t
-        cpu["raw"] += time.process_time() - c
-    substeps = env.sim.substeps
+
+    wall, cpu = _interleaved(rounds, env_round, raw_round)
     env.close()
-    n = n_env * per_round * rounds
+    n = env.num_envs * len(actions) * rounds
     return {
         "engine": "physx",
-        "envs": n_env,
-        "steps": per_round * rounds,
+        "envs": env.num_envs,
+        "steps": len(actions) * rounds,
         "threads": 1,
-        "modules": n_env,
+        "modules": env.num_envs,
         "timestep": env.sim.physx.timestep,
         "build_s": build_s,
-        "env_steps_per_s": n / wall["env"],
-        "rollout_steps_per_s": n / wall["raw"],
-        "physics_steps_per_s": n * substeps / wall["raw"],
-        "env_over_rollout": wall["raw"] / wall["env"],
-        "env_steps_per_cpu_s": n / cpu["env"],
-        "rollout_steps_per_cpu_s": n / cpu["raw"],
+        **_rates(n, env.sim.substeps, wall, cpu),
     }
 
 

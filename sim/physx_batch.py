@@ -360,9 +360,7 @@ class PhysxBatchSim(PegStateViews):
         """One control step at the commanded velocities (num_envs, 6): linear (m/s) and
         angular (rad/s) of the peg's bottom-face centre in the module frame. Returns the
         unstable flags (non-finite state, or a peg faster than the runaway speed)."""
-        v = np.asarray(velocity, dtype=np.float32)
-        for e, drive in enumerate(self._drives):
-            drive.set_drive_velocity_target(v[e, :3], v[e, 3:])
+        self.set_velocity_targets(velocity)
         for _ in range(self.substeps):
             self.scene.step()
         self._time += self.task.control_dt
