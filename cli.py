@@ -290,6 +290,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return _err("bench contacts needs a dataset: assetgen bench contacts DATASET")
         args.dataset = args.target
         try:
+            if args.sim == "mujoco-warp":
+                return _err("bench contacts --sim mujoco-warp: not built yet; use mujoco or physx")
             if args.sim == "physx":
                 from sim.contact_stress_physx import stress_physx
 
@@ -427,9 +429,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
     b.add_argument(
         "--sim",
-        choices=["mujoco", "physx"],
+        choices=["mujoco", "physx", "mujoco-warp"],
         default="mujoco",
-        help="sim, contacts: the engine (physx: the referee, from the USD files; the physx extra)",
+        help="sim, contacts: the engine (physx: the referee, from the USD files; the physx "
+        "extra; mujoco-warp: the simulator on a GPU, sim only; the warp extra)",
     )
     b.add_argument(
         "--push-time", type=float, default=None, help="contacts: seconds a push lasts (1.5)"
@@ -464,10 +467,11 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     e.add_argument(
         "--sim",
-        choices=["mujoco", "physx"],
+        choices=["mujoco", "physx", "mujoco-warp"],
         default="mujoco",
-        help="physics engine: MuJoCo (the simulator) or PhysX (the referee: SAPIEN on the CPU, "
-        "read from the USD files; the physx extra)",
+        help="physics engine: MuJoCo (the simulator), PhysX (the referee: SAPIEN on the CPU, "
+        "read from the USD files; the physx extra) or MuJoCo Warp (the simulator's physics on "
+        "a GPU; the warp extra)",
     )
     e.add_argument("--seed", type=int, default=0)
     e.add_argument(
@@ -547,6 +551,8 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "coacd": ("cad",),
     "pxr": ("cad", "physx"),
     "sapien": ("physx",),
+    "warp": ("warp",),
+    "mujoco_warp": ("warp",),
     "torch": ("rl",),
     "safetensors": ("rl",),
     "gymnasium": ("rl",),

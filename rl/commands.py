@@ -122,10 +122,11 @@ def add_train_parser(
     p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
     p.add_argument(
         "--sim",
-        choices=["mujoco", "physx"],
+        choices=["mujoco", "physx", "mujoco-warp"],
         default="mujoco",
-        help="physics engine: MuJoCo (the simulator) or PhysX (the referee, one env per module: "
-        "--envs must cover the dataset; the physx extra)",
+        help="physics engine: MuJoCo (the simulator), PhysX (the referee, one env per module: "
+        "--envs must cover the dataset; the physx extra) or MuJoCo Warp (the simulator's "
+        "physics on a GPU; the warp extra)",
     )
     p.add_argument(
         "--curriculum-steps",

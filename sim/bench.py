@@ -180,6 +180,70 @@ def bench_physx(
     }
 
 
+def bench_warp(
+    dataset: str | Path,
+    envs: int = 1024,
+    steps: int = 200,
+    *,
+    config: TaskConfig = EVAL_CONFIG,
+    rounds: int = 10,
+    seed: int = 0,
+    device: str | None = None,
+) -> dict:
+    """bench_sim on MuJoCo Warp: env steps/s at `envs` envs (one world each; with fewer envs
+    than modules the envs take the modules in turns, as in training), with random actions and
+    with the direct scripted expert, next to the simulator's own control steps without the
+    env layer (raw: the commands and states up, the substeps on the device, the states
+    back). The same keys as bench_sim's where they apply, and the device memory in use."""
+    from sim.expert import direct_expert_action
+
+    t0 = time.perf_counter()
+    env = PegInHoleVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True,
+                          engine="mujoco-warp")  # fmt: skip
+    sim = env.sim
+    if device is not None and device != sim.device:
+        raise ValueError(f"device = {device!r}: this machine's Warp device is {sim.device!r}")
+    build_s = time.perf_counter() - t0
+    scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
+    t0 = time.perf_counter()
+    actions = _random_actions(env, steps, rounds, seed)  # the warm-up compiles the kernels
+    compile_s = time.perf_counter() - t0
+
+    def env_round() -> None:
+        for a in actions:
+            env.step(a)
+
+    def raw_round(_: Any) -> None:
+        for a in actions:
+            sim.step(a * scale)
+
+    wall, cpu = _interleaved(rounds, env_round, raw_round)
+    n = envs * len(actions) * rounds
+    res = {
+        "engine": "mujoco-warp",
+        "device": sim.device,
+        "envs": envs,
+        "threads": 1,
+        "steps": len(actions) * rounds,
+        "modules": len(env.module_ids),
+        "timestep": env.cfg.physics.timestep,
+        "substeps": env.cfg.physics.substeps,
+        "build_s": build_s,
+        "compile_s": compile_s,
+        **_rates(n, env.cfg.physics.substeps, wall, cpu),
+    }
+    k = len(actions) * rounds
+    # the direct expert, observation to action on the host
+    obs = env.reset(seed=seed)
+    t = time.perf_counter()
+    for _ in range(k):
+        obs = env.step(direct_expert_action(obs))[0]
+    res["expert_env_steps_per_s"] = envs * k / (time.perf_counter() - t)
+    res["device_memory_mb"] = sim.device_memory_mb()
+    env.close()
+    return res
+
+
 def bench_main(args: argparse.Namespace) -> int:
     """`assetgen bench sim`: args.envs, and optionally args.steps, args.dataset (default
     `test`), args.threads, args.shard_size, args.json. Prints a short table (or JSON)."""
@@ -187,7 +251,10 @@ def bench_main(args: argparse.Namespace) -> int:
 
     root, _ = resolve(getattr(args, "dataset", None) or "test")
     engine = getattr(args, "sim", None) or "mujoco"
-    if engine == "physx":
+    if engine == "mujoco-warp":
+        res = bench_warp(root, getattr(args, "envs", None) or 1024,
+                         getattr(args, "steps", None) or 200)  # fmt: skip
+    elif engine == "physx":
         res = bench_physx(root, getattr(args, "envs", None) or 1024,
                           getattr(args, "steps", None) or 200)  # fmt: skip
     else:
@@ -206,9 +273,19 @@ def bench_main(args: argparse.Namespace) -> int:
         *([("envs per model (shard)", str(res["shard_size"]))] if "shard_size" in res else []),
         ("env steps/s (random actions)", f"{res['env_steps_per_s']:,.0f}"),
         (
-            "raw PhysX control steps/s" if engine == "physx" else "raw rollout steps/s",
+            {"physx": "raw PhysX control steps/s", "mujoco-warp": "raw Warp control steps/s"}.get(
+                engine, "raw rollout steps/s"
+            ),
             f"{res['rollout_steps_per_s']:,.0f}",
         ),
+        *[
+            (label, f"{res[key]:,.0f}")
+            for label, key in (
+                ("env steps/s (direct expert)", "expert_env_steps_per_s"),
+                ("device memory, MB", "device_memory_mb"),
+            )
+            if key in res
+        ],
         ("physics steps/s", f"{res['physics_steps_per_s']:,.0f}"),
         ("env / raw", f"{res['env_over_rollout']:.2f}"),
         (
@@ -216,6 +293,11 @@ def bench_main(args: argparse.Namespace) -> int:
             f"{res['env_steps_per_cpu_s']:,.0f} / {res['rollout_steps_per_cpu_s']:,.0f}",
         ),
         ("build time", f"{res['build_s']:.1f} s"),
+        *(
+            [("kernel compile (first steps)", f"{res['compile_s']:.1f} s")]
+            if "compile_s" in res
+            else []
+        ),
     ]
     width = max(len(k) for k, _ in rows)
     for k, v in rows:

@@ -57,8 +57,9 @@ def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
     return np.concatenate([np.arange(num_modules), extra[: num_envs - num_modules]])
 
 
-ENGINES = ("mujoco", "physx")
-"""Physics engines the env runs on."""
+ENGINES = ("mujoco", "physx", "mujoco-warp")
+"""Physics engines the env runs on: MuJoCo on the CPU (the simulator), PhysX (the referee,
+sim/physx_batch.py), MuJoCo Warp (the simulator's physics on a GPU, sim/warp_batch.py)."""
 
 
 class PegInHoleVecEnv:
@@ -90,7 +91,7 @@ class PegInHoleVecEnv:
         if engine not in ENGINES:
             raise ValueError(f"engine = {engine!r}; expected one of {ENGINES}")
         self.engine = engine
-        """The physics engine: mujoco (the simulator) or physx (the referee, sim/physx_batch.py)."""
+        """The physics engine, one of ENGINES."""
         self.cfg = (config or TaskConfig()).validate()
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
@@ -129,6 +130,10 @@ class PegInHoleVecEnv:
             from sim.physx_batch import PhysxBatchSim
 
             self.sim = PhysxBatchSim(assets, self.cfg, physx)
+        elif engine == "mujoco-warp":
+            from sim.warp_batch import WarpBatchSim
+
+            self.sim = WarpBatchSim(assets, self.cfg, spare)
         else:
             self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt

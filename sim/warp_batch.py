@@ -1,0 +1,325 @@
+"""BatchSim's contract on the GPU: every env a world of one MuJoCo Warp model.
+
+MuJoCo Warp (the `warp` extra) steps many worlds of one model at once, and lets each world
+have its own values of the model's batched fields, mesh ids among them (`geom_dataid`). So one
+model holds every module's meshes, and its geoms are *slots*: as many static piece slots as
+the module with the most pieces has pieces, and the peg's geom. A world takes its module's
+meshes into its slots; the slots its module does not use hold a tiny mesh parked 10 m below
+the module, out of every peg's reach.
+
+Every value a module changes is taken from that module's own model, compiled by the CPU
+simulator's `sim.scene.build_spec` with its pieces padded to the slot count: the batched
+fields whose values differ between modules (geom frames and bounds, the peg's mass and
+inertia, the actuator gains, ...) are copied per world, so a world is its module's CPU model
+in everything but float precision. MuJoCo Warp computes the poses of geoms fixed to the world
+once, so the slots' poses are written per world here as well.
+
+The physics is the task's `PhysicsConfig`, as on the CPU, in float32 (MuJoCo Warp's
+precision). MuJoCo Warp resets a world whose state turns non-finite (its autoreset, which it
+needs on); such a world's clock restarts, which `step` reports as unstable, as the CPU
+simulator reports a stalled shard.
+
+What stays on the host in this version: the env state (num_envs, 14) and the task's
+arithmetic (sim/env.py). Each control step uploads the commands and the state and reads the
+state back, one copy each way; the substeps in between run on the device with no host
+involvement (a captured CUDA graph on a GPU).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import mujoco
+import numpy as np
+
+from sim import step_kernel as K
+from sim.assets import AssetError, ModuleAsset
+from sim.batch import PegStateViews
+from sim.config import TaskConfig
+from sim.scene import build_spec, contact_solref, restitution_to_dampratio
+
+PARK_DEPTH = 10.0
+"""m below the module origin where unused piece slots lie."""
+_PARK = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) * 1e-3
+_PARK_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _warp():
+    try:
+        import mujoco_warp as mjw
+        import warp as wp
+    except ModuleNotFoundError as e:
+        # the command line turns this into its one-line advice (cli.missing_extra_message)
+        raise ModuleNotFoundError(
+            f"the mujoco-warp engine needs MuJoCo Warp ({e}): pip install -e '.[warp]'",
+            name=e.name,
+        ) from e
+    # Warp reports every kernel module it loads on stdout, which `--json` output is
+    wp.config.quiet = True
+    return wp, mjw
+
+
+def default_device() -> str:
+    """cuda:0 where Warp sees a GPU, else cpu."""
+    wp, _ = _warp()
+    return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
+
+
+def slot_spec(asset: ModuleAsset, task: TaskConfig, slots: int) -> mujoco.MjSpec:
+    """The CPU simulator's spec of one module (`sim.scene.build_spec`), its pieces padded to
+    `slots` geoms with parked tiny meshes. The parked geoms follow the pieces on the world
+    body, so piece slot i is geom i and the peg's geom is geom `slots` in every module."""
+    spec = build_spec(
+        [asset], task.physics, max_lin_vel=task.max_lin_vel, max_ang_vel=task.max_ang_vel
+    )
+    mesh = spec.add_mesh()
+    mesh.name = "park"
+    mesh.uservert = _PARK.ravel().tolist()
+    mesh.userface = _PARK_FACES.ravel().tolist()
+    for i in range(len(asset.pieces), slots):
+        g = spec.worldbody.add_geom()
+        g.name = f"slot{i}"
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = "park"
+        g.pos = [0.0, 0.0, -PARK_DEPTH]
+        # collidable as a piece: a slot's collision bits are every world's (MuJoCo Warp
+        # shares them), and another module may hold a piece in it
+        g.contype = 0
+        g.conaffinity = 1
+    return spec
+
+
+class WarpBatchSim(PegStateViews):
+    """`num_envs` peg-in-hole scenes, one MuJoCo Warp world each; the interface of
+    sim.batch.BatchSim that PegInHoleVecEnv uses (module rotation included, no saved env
+    state). State layout as BatchSim's: [time, pos (3), quat w x y z (4), qvel (6)].
+
+    env_assets: each env's module; spare_assets: further modules an env may be put on with
+    `set_module`. device: a Warp device ("cuda:0", "cpu"); None: the GPU if there is one.
+    nconmax, njmax: contacts and constraint rows allocated per world.
+    """
+
+    def __init__(
+        self,
+        env_assets: list[ModuleAsset],
+        task: TaskConfig,
+        spare_assets: list[ModuleAsset] | None = None,
+        device: str | None = None,
+        nconmax: int = 64,
+        njmax: int = 256,
+    ) -> None:
+        wp, mjw = _warp()
+        if task.physics is None:
+            raise ValueError("WarpBatchSim needs the task's physics (TaskConfig.physics)")
+        self.task = task
+        self.num_envs = n = len(env_assets)
+        self.device = device or default_device()
+        self._wp, self._mjw = wp, mjw
+        pool: dict[str, ModuleAsset] = {}
+        for a in list(env_assets) + list(spare_assets or ()):
+            if a.peg_pieces:
+                raise AssetError(
+                    f"module {a.id}: the mujoco-warp engine takes Table I modules (a convex "
+                    "peg); this peg is made of pieces"
+                )
+            pool.setdefault(a.id, a)
+        self.module_ids = list(pool)
+        self.slots = max(len(a.pieces) for a in pool.values())
+        self.peg_geom = self.slots
+        """The peg's geom id in every world."""
+
+        # each module's own model, slots padded: the source of every per-world value
+        own = {mid: slot_spec(a, task, self.slots).compile() for mid, a in pool.items()}
+        # one model holding every module's meshes (`m<k>_<name>`), with the first module's
+        # geoms as the slots
+        combined = slot_spec(next(iter(pool.values())), task, self.slots)
+        for k, a in enumerate(pool.values()):
+            m = own[a.id]
+            for j in range(m.nmesh):
+                name = m.mesh(j).name
+                if name == "park":
+                    continue
+                shape = a.peg if name == "peg" else a.pieces[int(name.removeprefix("piece"))]
+                mesh = combined.add_mesh()
+                mesh.name = f"m{k}_{name}"
+                mesh.uservert = np.asarray(shape.vertices, float).ravel().tolist()
+                mesh.userface = np.asarray(shape.faces, int).ravel().tolist()
+        self.mjm = combined.compile()
+        # MuJoCo Warp needs its autoreset on (the CPU simulator turns it off, see module doc)
+        self.mjm.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        mesh_id = {self.mjm.mesh(j).name: j for j in range(self.mjm.nmesh)}
+        self._dataid: dict[str, np.ndarray] = {}
+        for k, (mid, m) in enumerate(own.items()):
+            names = [m.mesh(int(d)).name for d in m.geom_dataid]
+            self._dataid[mid] = np.array(
+                [mesh_id["park" if s == "park" else f"m{k}_{s}"] for s in names], dtype=np.int32
+            )
+
+        # the batched fields whose values differ between modules, per module
+        batched = [
+            f.name
+            for f in dataclasses.fields(mjw.Model)
+            if getattr(f.type, "shape", ())[:1] == ("*",) and hasattr(self.mjm, f.name)
+        ]
+        first = own[self.module_ids[0]]
+        self._fields = ["geom_dataid"] + [
+            name
+            for name in batched
+            if name != "geom_dataid"
+            and np.shape(getattr(first, name)) == np.shape(getattr(self.mjm, name))
+            and any(
+                not np.array_equal(getattr(first, name), getattr(m, name)) for m in own.values()
+            )
+        ]
+        self._fields += [f for f in ("geom_friction", "geom_solref") if f not in self._fields]
+        self._per_module = {
+            mid: {
+                f: (self._dataid[mid] if f == "geom_dataid" else np.array(getattr(m, f)))
+                for f in self._fields
+            }
+            for mid, m in own.items()
+        }
+        # static slot poses (the world body is at the origin)
+        self._slot_pose = {}
+        for mid, m in own.items():
+            d = mujoco.MjData(m)
+            mujoco.mj_kinematics(m, d)
+            self._slot_pose[mid] = (
+                d.geom_xpos[: self.slots].copy(),
+                d.geom_xmat[: self.slots].copy(),
+            )
+
+        with wp.ScopedDevice(self.device), warnings.catch_warnings():
+            # the pieces' friction is 0 on purpose: the peg's geom has priority, its
+            # (randomised) friction is the contact's, as on the CPU
+            warnings.filterwarnings("ignore", message=".*MJ_MINMU.*")
+            self.model = mjw.put_model(self.mjm, batch_sizes={f: n for f in self._fields})
+            self.data = mjw.make_data(self.mjm, nworld=n, nconmax=nconmax, njmax=njmax)
+        self.host = {
+            f: np.stack([self._per_module[a.id][f] for a in env_assets]) for f in self._fields
+        }
+        """Per-world values of the batched fields (host copies, uploaded when changed)."""
+        self.env_module = [a.id for a in env_assets]
+        self._xpos = np.stack([self._slot_pose[a.id][0] for a in env_assets])
+        self._xmat = np.stack([self._slot_pose[a.id][1] for a in env_assets])
+        self._dirty_model = True
+        self.state = np.zeros((n, 14))
+        self.state[:, 4] = 1.0
+        self.state[:, 3] = 0.2
+        self._ctrl = np.zeros((n, 6), dtype=np.float32)
+        self._checks = K.Checks.of(task.physics)
+        self._graph = None
+
+    # ------------------------------------------------------------------ state access
+
+    @property
+    def qvel(self) -> np.ndarray:
+        """(num_envs, 6) free-joint velocity (a view)."""
+        return self.state[:, 8:14]
+
+    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
+        self.state[idx, 1:4] = pos
+        self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+        self.state[idx, 8:14] = 0.0
+
+    def set_contact(self, idx: np.ndarray, friction: np.ndarray, dampratio: np.ndarray) -> None:
+        """Peg-module contact of envs `idx`: Coulomb friction (k,) and damping ratio (k,)
+        (the peg geom's priority makes its values the contact's, as on the CPU)."""
+        idx = np.atleast_1d(idx)
+        self.host["geom_friction"][idx, self.peg_geom, 0] = friction
+        self.host["geom_solref"][idx, self.peg_geom] = contact_solref(dampratio, self.task.physics)
+        self._dirty_model = True
+
+    def set_material(
+        self, idx: np.ndarray, static: np.ndarray, dynamic: np.ndarray, restitution: np.ndarray
+    ) -> None:
+        """The task's contact draws, as the CPU simulator takes them (BatchSim.set_material)."""
+        del static
+        self.set_contact(idx, dynamic, restitution_to_dampratio(restitution, self.task.physics))
+
+    def set_module(self, e: int, module_id: str) -> None:
+        """Put env `e` on module `module_id` (one given at construction). Place the peg with
+        `set_pose` and set its contact with `set_contact` next."""
+        if module_id not in self._per_module:
+            raise ValueError(f"module {module_id!r} was not given to this WarpBatchSim")
+        for f, v in self._per_module[module_id].items():
+            self.host[f][e] = v
+        self._xpos[e], self._xmat[e] = self._slot_pose[module_id]
+        self.env_module[e] = module_id
+        self._dirty_model = True
+
+    def gather(self) -> None:
+        """The state is read after every step (BatchSim's contract)."""
+
+    # ------------------------------------------------------------------ stepping
+
+    def _upload_model(self) -> None:
+        wp = self._wp
+        for f, v in self.host.items():
+            arr = getattr(self.model, f)
+            arr.assign(wp.array(v.astype(np.int32 if f == "geom_dataid" else np.float32),
+                                dtype=arr.dtype, device=self.device))  # fmt: skip
+        s = self.slots
+        xpos = self.data.geom_xpos.numpy()
+        xmat = self.data.geom_xmat.numpy()
+        xpos[:, :s] = self._xpos
+        xmat[:, :s] = self._xmat.reshape(self.num_envs, s, 3, 3)
+        self.data.geom_xpos.assign(xpos)
+        self.data.geom_xmat.assign(xmat)
+        self._dirty_model = False
+
+    def _substeps(self) -> None:
+        for _ in range(self.task.physics.substeps):
+            self._mjw.step(self.model, self.data)
+
+    def _upload_state(self) -> None:
+        self.data.ctrl.assign(self._ctrl)
+        self.data.qpos.assign(self.state[:, 1:8].astype(np.float32))
+        self.data.qvel.assign(self.state[:, 8:14].astype(np.float32))
+        self.data.time.zero_()  # float32 time: each control step counts from 0
+
+    def device_substeps(self) -> None:
+        """One control step's substeps on the device, from and to the device's state (a
+        captured CUDA graph on a GPU: one launch; the first call compiles and captures)."""
+        wp = self._wp
+        with wp.ScopedDevice(self.device):
+            if not self.device.startswith("cuda"):
+                self._substeps()
+                return
+            if self._graph is None:
+                self._substeps()  # compiles every kernel; capture needs them loaded
+                self._upload_state()
+                with wp.ScopedCapture() as capture:
+                    self._substeps()
+                self._graph = capture.graph
+            wp.capture_launch(self._graph)
+
+    def device_memory_mb(self) -> float:
+        """MB of the device's memory in use (the whole device's, on a GPU; NaN on the CPU)."""
+        dev = self._wp.get_device(self.device)
+        if not dev.is_cuda:
+            return float("nan")
+        return (dev.total_memory - dev.free_memory) / 2**20
+
+    def step(self, velocity: np.ndarray) -> np.ndarray:
+        """One control step at the commanded velocities (num_envs, 6), as BatchSim.step.
+        Returns the unstable flags: a non-finite state, a world MuJoCo Warp reset (its clock
+        restarted), or a runaway peg."""
+        if self._dirty_model:
+            self._upload_model()
+        self._ctrl[:] = velocity
+        self._upload_state()
+        self.device_substeps()
+        t = self.data.time.numpy().astype(float)
+        self.state[:, 1:8] = self.data.qpos.numpy()
+        self.state[:, 8:14] = self.data.qvel.numpy()
+        self.state[:, 0] += self._checks.control_step
+        unstable = np.empty(self.num_envs, dtype=bool)
+        K.check_unstable(self.state, self._checks, unstable)
+        unstable |= np.abs(t - self._checks.control_step) > 0.5 * self._checks.timestep
+        return unstable
+
+    def close(self) -> None:
+        self._graph = None

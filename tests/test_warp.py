@@ -1,0 +1,128 @@
+"""The simulator on MuJoCo Warp (sim/warp_batch.py), run on Warp's CPU device so that CI
+needs no GPU: the same trajectory as the CPU simulator in free flight, the same insertions
+in contact, module rotation, and the errors."""
+
+from __future__ import annotations
+
+import functools
+import shutil
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
+
+from assetgen.core.mujoco_config import physics_for
+from assetgen.core.rotations import quat_conj, quat_mul
+from sim.assets import load_dataset
+from sim.config import TaskConfig
+from sim.env import PegInHoleVecEnv
+from sim.expert import DIRECT, expert_action
+
+
+@functools.cache
+def _dataset() -> Path:
+    """Three test-split modules (seeds 2048-2050), generated once."""
+    import atexit
+
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetSpec
+    from assetgen.params.sampler import SamplerConfig
+
+    tmp = Path(tempfile.mkdtemp(prefix="warp-tests-"))
+    atexit.register(shutil.rmtree, tmp, ignore_errors=True)
+    spec = DatasetSpec("t", 2048, 3, SamplerConfig(), ("collision", "mjcf"))
+    assert not generate(tmp / "ds", spec, workers=1, progress=False).failures
+    return tmp / "ds"
+
+
+def _quiet() -> TaskConfig:
+    return TaskConfig(noise=False, curriculum_steps=0, physics=physics_for(0.001))
+
+
+def _env(mods, num_envs: int, cfg: TaskConfig, engine: str, **kw) -> PegInHoleVecEnv:
+    extra = {"nthread": 1} if engine == "mujoco" else {}
+    return PegInHoleVecEnv(mods, num_envs, cfg, engine=engine, **extra, **kw)
+
+
+def test_free_flight_matches_the_cpu_simulator_to_float32() -> None:
+    """No contact: the same modules, poses and actions give the CPU simulator's trajectory
+    over 200 control steps (8000 physics steps) within 10 µm and 1e-5 rad. MuJoCo Warp
+    computes in float32 (a relative 6e-8 a step: micrometres accumulate over thousands of
+    steps), the CPU in float64."""
+    mods = load_dataset(_dataset())[:2]
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-0.5, 0.5, (200, len(mods), 6))
+    actions[:, :, 2] = 0.2  # rising: nothing to touch
+    traj = {}
+    for engine in ("mujoco", "mujoco-warp"):
+        env = _env(mods, len(mods), _quiet(), engine)
+        env.reset(seed=0)
+        poses = np.tile(np.eye(4), (len(mods), 1, 1))
+        poses[:, 2, 3] = 0.1
+        env.set_peg_poses(np.arange(len(mods)), poses)
+        states = []
+        for a in actions:
+            env.step(a)
+            states.append(env.sim.state[:, 1:8].copy())
+        traj[engine] = np.array(states)
+        env.close()
+    cpu, gpu = traj["mujoco"], traj["mujoco-warp"]
+    travel = np.linalg.norm(cpu[-1, :, :3] - cpu[0, :, :3], axis=1)
+    assert travel.min() > 0.05, "the pegs must move for the comparison to mean anything"
+    np.testing.assert_allclose(gpu[..., :3], cpu[..., :3], rtol=0, atol=1e-5)
+    # the angle between the orientations, from the relative quaternion's vector part
+    # (linear in the error, unlike the dot product at float32's resolution)
+    rel = quat_mul(quat_conj(cpu[..., 3:].reshape(-1, 4)), gpu[..., 3:].reshape(-1, 4))
+    angle = 2 * np.linalg.norm(rel[:, 1:], axis=1)
+    assert angle.max() < 1e-5, angle.max()
+
+
+def test_the_direct_expert_inserts_as_on_the_cpu_with_modules_in_turns() -> None:
+    """In contact trajectories part at float precision, so the figures are compared: one
+    env takes two modules in turns (MuJoCo Warp's per-world meshes swapped at each
+    reset), noise on, and the direct expert inserts every peg within 5 % of the CPU
+    simulator's time on the same episodes."""
+    mods = load_dataset(_dataset())[:2]
+    cfg = replace(_quiet(), noise=True)
+    times = {}
+    for engine in ("mujoco", "mujoco-warp"):
+        env = _env(mods, 1, cfg, engine, rotate_modules=True)
+        obs = env.reset(seed=0)
+        got, played = [], []
+        for _ in range(2 * 200):
+            module = env.env_module[0]
+            obs, _r, term, trunc, info = env.step(expert_action(obs, DIRECT))
+            if term[0] or trunc[0]:
+                assert info["success"][0], (engine, module)
+                got.append(float(info["episode_length"][0]) * env.control_dt)
+                played.append(int(module))
+                if len(got) == 2:
+                    break
+        assert sorted(played) == [0, 1], played  # every module had its turn
+        times[engine] = np.array(got)
+        env.close()
+    np.testing.assert_allclose(times["mujoco-warp"], times["mujoco"], rtol=0.05)
+
+
+def test_what_the_warp_engine_refuses(tmp_path: Path) -> None:
+    mods = load_dataset(_dataset())
+    with pytest.raises(ValueError, match="engine = 'bullet'"):
+        PegInHoleVecEnv(mods, 3, _quiet(), engine="bullet")
+    env = _env(mods, 2, _quiet(), "mujoco-warp")
+    with pytest.raises(ValueError, match="saving the env's state is MuJoCo's only"):
+        env.get_state()
+    with pytest.raises(ValueError, match="module 'nope' was not given"):
+        env.sim.set_module(0, "nope")
+    env.close()
+
+
+def test_a_missing_warp_extra_is_named_in_one_line() -> None:
+    from cli import missing_extra_message
+
+    msg = missing_extra_message("eval", "mujoco_warp", "mujoco-warp")
+    assert msg is not None and "[warp]" in msg and "\n" not in msg
+    assert "[warp]" in (missing_extra_message("bench", "warp._src.context", "mujoco-warp") or "")
