@@ -47,16 +47,18 @@ _PARK_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 
 def _warp():
     try:
-        import mujoco_warp as mjw
         import warp as wp
+
+        # Warp reports its start and every kernel module it loads on stdout, which `--json`
+        # output is; quiet before mujoco_warp's import starts it
+        wp.config.quiet = True
+        import mujoco_warp as mjw
     except ModuleNotFoundError as e:
         # the command line turns this into its one-line advice (cli.missing_extra_message)
         raise ModuleNotFoundError(
             f"the mujoco-warp engine needs MuJoCo Warp ({e}): pip install -e '.[warp]'",
             name=e.name,
         ) from e
-    # Warp reports every kernel module it loads on stdout, which `--json` output is
-    wp.config.quiet = True
     return wp, mjw
 
 
