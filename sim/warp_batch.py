@@ -318,10 +318,26 @@ class WarpBatchSim(PegStateViews):
         self.state[:, 1:8] = self.data.qpos.numpy()
         self.state[:, 8:14] = self.data.qvel.numpy()
         self.state[:, 0] += self._checks.control_step
+        self._check_capacity()
         unstable = np.empty(self.num_envs, dtype=bool)
         K.check_unstable(self.state, self._checks, unstable)
         unstable |= np.abs(t - self._checks.control_step) > 0.5 * self._checks.timestep
         return unstable
+
+    def _check_capacity(self) -> None:
+        """MuJoCo Warp drops collision pairs, contacts and constraint rows beyond those
+        allocated (and prints a warning from its kernels): refuse to go on with fewer than
+        the physics asks for. Its counters hold the control step's last substep."""
+        d = self.data
+        pairs, nacon = int(d.ncollision.numpy()[0]), int(d.nacon.numpy()[0])
+        nefc = int(d.nefc.numpy().max())
+        if max(pairs, nacon) >= d.naconmax or nefc >= d.njmax:
+            raise RuntimeError(
+                f"MuJoCo Warp ran out of room: {pairs} collision pairs and {nacon} contacts "
+                f"of {d.naconmax} allocated ({d.naconmax // self.num_envs} a world), {nefc} "
+                f"constraint rows of {d.njmax} a world; build WarpBatchSim with a larger "
+                "nconmax / njmax"
+            )
 
     def close(self) -> None:
         self._graph = None

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
+pytest.importorskip("warp", reason="the warp extra: pip install -e '.[warp]'")
 
 from assetgen.core.mujoco_config import physics_for
 from assetgen.core.rotations import quat_conj, quat_mul
@@ -21,6 +21,10 @@ from sim.assets import load_dataset
 from sim.config import TaskConfig
 from sim.env import PegInHoleVecEnv
 from sim.expert import DIRECT, expert_action
+from sim.warp_batch import _warp
+
+pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
+_warp()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
 
 
 @functools.cache
@@ -118,6 +122,23 @@ def test_what_the_warp_engine_refuses(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="module 'nope' was not given"):
         env.sim.set_module(0, "nope")
     env.close()
+
+
+def test_a_world_out_of_contact_room_is_refused_not_truncated() -> None:
+    """MuJoCo Warp drops contacts beyond those allocated; the engine says so instead."""
+    from assetgen.core.rotations import matrix_to_quat
+    from sim.warp_batch import WarpBatchSim
+
+    mod = load_dataset(_dataset())[0]
+    sim = WarpBatchSim([mod], _quiet(), nconmax=1, njmax=3)
+    down = mod.bottom[:3, 2]
+    sim.set_pose(
+        np.array([0]),
+        mod.bottom[None, :3, 3] - 1e-4 * down,
+        matrix_to_quat(mod.bottom[None, :3, :3]),
+    )
+    with pytest.raises(RuntimeError, match="larger nconmax / njmax"):
+        sim.step(np.zeros((1, 6)))
 
 
 def test_a_missing_warp_extra_is_named_in_one_line() -> None:
