@@ -73,7 +73,8 @@ def shard_layout(num_envs: int, shard_size: int) -> tuple[int, int]:
 
 class PegStateViews:
     """Views of a simulator's `state` (num_envs, 14) = [time, pos (3), quat (4), qvel (6)],
-    shared by BatchSim and the PhysX referee (sim/physx_batch.py)."""
+    and pegs placed at rest in it, shared by BatchSim, the PhysX referee
+    (sim/physx_batch.py) and MuJoCo Warp (sim/warp_batch.py)."""
 
     state: np.ndarray
 
@@ -86,6 +87,17 @@ class PegStateViews:
     def peg_quat(self) -> np.ndarray:
         """(num_envs, 4) peg frame orientation (w, x, y, z) in the module frame (a view)."""
         return self.state[:, 4:8]
+
+    @property
+    def qvel(self) -> np.ndarray:
+        """(num_envs, 6) free-joint velocity (a view)."""
+        return self.state[:, 8:14]
+
+    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
+        self.state[idx, 1:4] = pos
+        self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+        self.state[idx, 8:14] = 0.0
 
 
 class BatchSim(PegStateViews):
@@ -214,17 +226,6 @@ class BatchSim(PegStateViews):
         self._ss_flat[self._flat] = self.state + self._offset
 
     # ------------------------------------------------------------------ state access
-
-    @property
-    def qvel(self) -> np.ndarray:
-        """(num_envs, 6) free-joint velocity (a view)."""
-        return self.state[:, 8:14]
-
-    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
-        """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
-        self.state[idx, 1:4] = pos
-        self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
-        self.state[idx, 8:14] = 0.0
 
     def set_contact(self, idx: np.ndarray, friction: np.ndarray, dampratio: np.ndarray) -> None:
         """Peg-module contact of envs `idx`: Coulomb friction (k,) and damping ratio (k,).

@@ -215,17 +215,6 @@ class WarpBatchSim(PegStateViews):
 
     # ------------------------------------------------------------------ state access
 
-    @property
-    def qvel(self) -> np.ndarray:
-        """(num_envs, 6) free-joint velocity (a view)."""
-        return self.state[:, 8:14]
-
-    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
-        """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
-        self.state[idx, 1:4] = pos
-        self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
-        self.state[idx, 8:14] = 0.0
-
     def set_contact(self, idx: np.ndarray, friction: np.ndarray, dampratio: np.ndarray) -> None:
         """Peg-module contact of envs `idx`: Coulomb friction (k,) and damping ratio (k,)
         (the peg geom's priority makes its values the contact's, as on the CPU)."""
