@@ -28,6 +28,7 @@ involvement (a captured CUDA graph on a GPU).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import warnings
 
 import mujoco
@@ -60,6 +61,27 @@ def _warp():
             name=e.name,
         ) from e
     return wp, mjw
+
+
+@functools.cache
+def _contact_kernel():
+    """A Warp kernel: world idx[i]'s peg geom gets friction[i] and solref[i]."""
+    wp, _ = _warp()
+
+    @wp.kernel
+    def set_peg_contact(
+        idx: wp.array(dtype=wp.int32),
+        friction: wp.array(dtype=wp.vec3),
+        solref: wp.array(dtype=wp.vec2),
+        geom: int,
+        geom_friction: wp.array2d(dtype=wp.vec3),
+        geom_solref: wp.array2d(dtype=wp.vec2),
+    ):
+        i = wp.tid()
+        geom_friction[idx[i], geom] = friction[i]
+        geom_solref[idx[i], geom] = solref[i]
+
+    return set_peg_contact
 
 
 def default_device() -> str:
@@ -205,7 +227,12 @@ class WarpBatchSim(PegStateViews):
         self.env_module = [a.id for a in env_assets]
         self._xpos = np.stack([self._slot_pose[a.id][0] for a in env_assets])
         self._xmat = np.stack([self._slot_pose[a.id][1] for a in env_assets])
-        self._dirty_model = True
+        self._upload_all = True
+        """Every world's fields go up at the next step (at the start)."""
+        self._moved: set[int] = set()
+        """Worlds put on another module since the last step: their rows go up."""
+        self._contact: set[int] = set()
+        """Worlds whose peg contact was drawn since the last step: one scatter kernel."""
         self.state = np.zeros((n, 14))
         self.state[:, 4] = 1.0
         self.state[:, 3] = 0.2
@@ -221,7 +248,7 @@ class WarpBatchSim(PegStateViews):
         idx = np.atleast_1d(idx)
         self.host["geom_friction"][idx, self.peg_geom, 0] = friction
         self.host["geom_solref"][idx, self.peg_geom] = contact_solref(dampratio, self.task.physics)
-        self._dirty_model = True
+        self._contact.update(idx.tolist())
 
     def set_material(
         self, idx: np.ndarray, static: np.ndarray, dynamic: np.ndarray, restitution: np.ndarray
@@ -239,7 +266,7 @@ class WarpBatchSim(PegStateViews):
             self.host[f][e] = v
         self._xpos[e], self._xmat[e] = self._slot_pose[module_id]
         self.env_module[e] = module_id
-        self._dirty_model = True
+        self._moved.add(int(e))
 
     def gather(self) -> None:
         """The state is read after every step (BatchSim's contract)."""
@@ -247,19 +274,57 @@ class WarpBatchSim(PegStateViews):
     # ------------------------------------------------------------------ stepping
 
     def _upload_model(self) -> None:
+        """Send what changed since the last step: every world's fields at the start, the
+        rows of worlds that changed module, the pegs' new contact draws (one kernel)."""
         wp = self._wp
-        for f, v in self.host.items():
-            arr = getattr(self.model, f)
-            arr.assign(wp.array(v.astype(np.int32 if f == "geom_dataid" else np.float32),
-                                dtype=arr.dtype, device=self.device))  # fmt: skip
-        s = self.slots
-        xpos = self.data.geom_xpos.numpy()
-        xmat = self.data.geom_xmat.numpy()
-        xpos[:, :s] = self._xpos
-        xmat[:, :s] = self._xmat.reshape(self.num_envs, s, 3, 3)
-        self.data.geom_xpos.assign(xpos)
-        self.data.geom_xmat.assign(xmat)
-        self._dirty_model = False
+        if self._upload_all:
+            worlds = list(range(self.num_envs))
+            for f, v in self.host.items():
+                arr = getattr(self.model, f)
+                arr.assign(wp.array(self._cast(f, v), dtype=arr.dtype, device=self.device))
+            xpos, xmat = self.data.geom_xpos.numpy(), self.data.geom_xmat.numpy()
+            xpos[:, : self.slots] = self._xpos
+            xmat[:, : self.slots] = self._xmat.reshape(self.num_envs, self.slots, 3, 3)
+            self.data.geom_xpos.assign(xpos)
+            self.data.geom_xmat.assign(xmat)
+            self._upload_all = False
+        else:
+            worlds = sorted(self._moved)
+            for e in worlds:
+                for f, v in self.host.items():
+                    arr = getattr(self.model, f)[e]
+                    arr.assign(wp.array(self._cast(f, v[e]), dtype=arr.dtype, device=self.device))
+                # a world row of the fixed geoms' poses; the peg's is recomputed every step
+                xpos = np.zeros((self.mjm.ngeom, 3), np.float32)
+                xmat = np.tile(np.eye(3, dtype=np.float32), (self.mjm.ngeom, 1, 1))
+                xpos[: self.slots] = self._xpos[e]
+                xmat[: self.slots] = self._xmat[e].reshape(self.slots, 3, 3)
+                self.data.geom_xpos[e].assign(wp.array(xpos, dtype=wp.vec3, device=self.device))
+                self.data.geom_xmat[e].assign(wp.array(xmat, dtype=wp.mat33, device=self.device))
+        contact = sorted(self._contact.difference(worlds))
+        if contact:
+            g = self.peg_geom
+            idx = np.array(contact, dtype=np.int32)
+            fr = self.host["geom_friction"][idx, g].astype(np.float32)
+            sr = self.host["geom_solref"][idx, g].astype(np.float32)
+            wp.launch(
+                _contact_kernel(),
+                dim=len(idx),
+                inputs=[
+                    wp.array(idx, dtype=wp.int32, device=self.device),
+                    wp.array(fr, dtype=wp.vec3, device=self.device),
+                    wp.array(sr, dtype=wp.vec2, device=self.device),
+                    g,
+                ],
+                outputs=[self.model.geom_friction, self.model.geom_solref],
+                device=self.device,
+            )
+        self._moved.clear()
+        self._contact.clear()
+
+    @staticmethod
+    def _cast(field: str, v: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(v, dtype=np.int32 if field == "geom_dataid" else np.float32)
 
     def _substeps(self) -> None:
         for _ in range(self.task.physics.substeps):
@@ -298,7 +363,7 @@ class WarpBatchSim(PegStateViews):
         """One control step at the commanded velocities (num_envs, 6), as BatchSim.step.
         Returns the unstable flags: a non-finite state, a world MuJoCo Warp reset (its clock
         restarted), or a runaway peg."""
-        if self._dirty_model:
+        if self._upload_all or self._moved or self._contact:
             self._upload_model()
         self._ctrl[:] = velocity
         self._upload_state()

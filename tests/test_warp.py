@@ -124,6 +124,30 @@ def test_what_the_warp_engine_refuses(tmp_path: Path) -> None:
     env.close()
 
 
+def test_what_changes_between_steps_reaches_the_device() -> None:
+    """Between steps only what changed goes up: a world put on another module gets that
+    module's rows (meshes, frames, the fixed pieces' poses), a new contact draw reaches its
+    world's peg alone."""
+    from sim.warp_batch import WarpBatchSim
+
+    mods = load_dataset(_dataset())
+    sim = WarpBatchSim(mods[:2], _quiet(), spare_assets=mods[2:])
+    sim.step(np.zeros((2, 6)))
+    before = sim.model.geom_friction.numpy().copy()
+    sim.set_contact(np.array([1]), np.array([0.37]), np.array([4.5]))
+    sim.set_module(0, mods[2].id)
+    sim.step(np.zeros((2, 6)))
+    g = sim.peg_geom
+    friction = sim.model.geom_friction.numpy()
+    assert friction[1, g, 0] == pytest.approx(0.37)
+    np.testing.assert_array_equal(np.delete(friction[1], g, 0), np.delete(before[1], g, 0))
+    want = sim._per_module[mods[2].id]
+    np.testing.assert_array_equal(sim.model.geom_dataid.numpy()[0], want["geom_dataid"])
+    np.testing.assert_allclose(sim.model.geom_pos.numpy()[0], want["geom_pos"], atol=1e-7)
+    np.testing.assert_allclose(sim.data.geom_xpos.numpy()[0, : sim.slots], sim._xpos[0], atol=1e-7)
+    assert sim.env_module == [mods[2].id, mods[1].id]
+
+
 def test_a_world_out_of_contact_room_is_refused_not_truncated() -> None:
     """MuJoCo Warp drops contacts beyond those allocated; the engine says so instead."""
     from assetgen.core.rotations import matrix_to_quat
