@@ -81,6 +81,8 @@ REFEREE: tuple[tuple[str, str, str, str], ...] = (
      "docs/results/referee/sac-fast-bc_physx_test.json"),
     ("dreamer-direct-bc", "test", "checkpoints/dreamer-direct-bc/eval_test.json",
      "docs/results/referee/dreamer-direct-bc_physx_test.json"),
+    ("scripted", "test_c025", "docs/results/referee/scripted_mujoco_test_c025.json",
+     "docs/results/referee/scripted_physx_test_c025.json"),
     ("scripted-direct", "test_c025", "docs/results/referee/scripted-direct_mujoco_test_c025.json",
      "docs/results/referee/scripted-direct_physx_test_c025.json"),
     ("sac-direct-bc", "test_c025", "checkpoints/sac-direct-bc/eval_test_c025.json",
