@@ -746,7 +746,10 @@ def main(args, physx_stress: Callable | None = None) -> int:
     assets = load_dataset(root, ids)
     # the dataset's clearance sets the step (physics_for), unless an older version is asked
     base = base or physics_for(min(a.clearance for a in assets))
-    physics = replace(base, **parse_overrides(PhysicsConfig, args.set or [])).validate()
+    engine = getattr(args, "sim", None) or "mujoco"
+    # --set: the engine's settings (PhysicsConfig for MuJoCo, PhysxConfig for PhysX)
+    on_mujoco = [] if engine == "physx" else args.set or []
+    physics = replace(base, **parse_overrides(PhysicsConfig, on_mujoco)).validate()
     mjcf = None
     if args.source == "mjcf":
         ds = Dataset(root)
@@ -755,17 +758,16 @@ def main(args, physx_stress: Callable | None = None) -> int:
     def progress(done: int, total: int) -> None:
         print(f"\r{done}/{total} modules", end="", file=sys.stderr, flush=True)
 
-    engine = getattr(args, "sim", None) or "mujoco"
-    if engine == "physx" and (mjcf is not None or args.set or version is not None):
-        raise ValueError("--sim physx takes its settings from PhysxConfig: drop --source, --set "
-                         "and --physics-version")  # fmt: skip
+    if engine == "physx" and (mjcf is not None or version is not None):
+        raise ValueError("--sim physx takes its settings from PhysxConfig (--set FIELD=VALUE): "
+                         "drop --source and --physics-version")  # fmt: skip
     t0 = time.perf_counter()
     if engine == "physx":
         from sim.physx_config import PhysxConfig
 
         if physx_stress is None:
             raise ValueError("--sim physx: pass sim.contact_stress_physx.stress_physx")
-        physx = PhysxConfig()
+        physx = PhysxConfig(**parse_overrides(PhysxConfig, args.set or []))
         task = TaskConfig(physics=physics)
         records = physx_stress(assets, cfg, task, physx, progress=progress)
     else:

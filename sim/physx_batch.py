@@ -199,7 +199,7 @@ class PhysxBatchSim(PegStateViews):
         px.set_scene_config(
             gravity=[0.0, 0.0, 0.0],
             bounce_threshold=cfg.bounce_threshold,
-            enable_pcm=True,
+            enable_pcm=cfg.pcm,
             enable_tgs=True,
             enable_ccd=False,
             enable_enhanced_determinism=True,

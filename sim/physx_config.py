@@ -38,6 +38,10 @@ class PhysxConfig:
     impacts, as in the original)."""
     max_depenetration_velocity: float = 1.0
     """m/s: the most speed PhysX may give a body to push it out of a penetration."""
+    pcm: bool = True
+    """PhysX's persistent contact manifold (PCM), Isaac Sim's default. On, it reported
+    contacts as deep as a peg's insertion (24.7 mm) along the hole's axis in one module's
+    pushes, and up to 72 mm in impacts; off, the same runs read micrometres (docs/physics.md)."""
     cook_scale: float = 100.0
     """Convex meshes are cooked scaled up by this factor and scaled back in the shape:
     PhysX's cooking merges vertices within about 0.7 mm of the hull, more than the

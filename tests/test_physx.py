@@ -277,3 +277,18 @@ def test_train_runs_on_physx_from_the_command_line(tmp_path: Path) -> None:
     r = train(2, tmp_path / "few")
     assert r.returncode == 2 and "one env per module" in r.stderr, r.stderr[-2000:]
     assert "Traceback" not in r.stderr
+
+
+def test_bench_contacts_takes_physx_settings_from_set(tmp_path: Path, capsys) -> None:
+    """`bench contacts --sim physx --set FIELD=VALUE` sets PhysxConfig (PCM off here), records
+    it in the JSON, and refuses a field PhysX does not have, naming its fields."""
+    import json
+
+    from cli import main
+
+    out = tmp_path / "s.json"
+    args = ["bench", "contacts", str(_dataset()), "--sim", "physx", "--limit", "1"]
+    assert main([*args, "--cases", "friction", "--set", "pcm=false", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["physics"]["pcm"] is False
+    assert main([*args, "--set", "solref=1"]) != 0
+    assert "PhysxConfig's fields" in capsys.readouterr().err
