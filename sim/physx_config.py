@@ -41,7 +41,8 @@ class PhysxConfig:
     pcm: bool = True
     """PhysX's persistent contact manifold (PCM), Isaac Sim's default. On, it reported
     contacts as deep as a peg's insertion (24.7 mm) along the hole's axis in one module's
-    pushes, and up to 72 mm in impacts; off, the same runs read micrometres (docs/physics.md)."""
+    pushes, and up to 72 mm in impacts; off, those runs read micrometres but sliding
+    friction goes wrong (docs/physics.md)."""
     cook_scale: float = 100.0
     """Convex meshes are cooked scaled up by this factor and scaled back in the shape:
     PhysX's cooking merges vertices within about 0.7 mm of the hull, more than the
