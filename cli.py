@@ -339,6 +339,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from rl.commands import add_sim_argument
+
     p = argparse.ArgumentParser(
         prog="assetgen", description="Procedural peg-in-hole modules, simulation and learning."
     )
@@ -427,11 +429,9 @@ def build_parser() -> argparse.ArgumentParser:
         "peg_in_hole.xml files with the physics they carry",
     )
     b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
-    b.add_argument(
-        "--sim",
-        choices=["mujoco", "physx", "mujoco-warp"],
-        default="mujoco",
-        help="sim, contacts: the engine (physx: the referee, from the USD files; the physx "
+    add_sim_argument(
+        b,
+        "sim, contacts: the engine (physx: the referee, from the USD files; the physx "
         "extra; mujoco-warp: the simulator on a GPU, sim only; the warp extra)",
     )
     b.add_argument(
@@ -465,11 +465,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--modules", type=int, default=None,
         help="the dataset's first N modules (or assemblies) only (default: all, the protocol)",
     )  # fmt: skip
-    e.add_argument(
-        "--sim",
-        choices=["mujoco", "physx", "mujoco-warp"],
-        default="mujoco",
-        help="physics engine: MuJoCo (the simulator), PhysX (the referee: SAPIEN on the CPU, "
+    add_sim_argument(
+        e,
+        "physics engine: MuJoCo (the simulator), PhysX (the referee: SAPIEN on the CPU, "
         "read from the USD files; the physx extra) or MuJoCo Warp (the simulator's physics on "
         "a GPU; the warp extra)",
     )

@@ -120,11 +120,9 @@ def add_train_parser(
     p.add_argument("--out", type=Path, required=True, help="run folder")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
-    p.add_argument(
-        "--sim",
-        choices=["mujoco", "physx", "mujoco-warp"],
-        default="mujoco",
-        help="physics engine: MuJoCo (the simulator), PhysX (the referee, one env per module: "
+    add_sim_argument(
+        p,
+        "physics engine: MuJoCo (the simulator), PhysX (the referee, one env per module: "
         "--envs must cover the dataset; the physx extra) or MuJoCo Warp (the simulator's "
         "physics on a GPU; the warp extra)",
     )
@@ -180,6 +178,16 @@ def add_train_parser(
     p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
     p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}, make_probe_env))
     return p
+
+
+SIM_CHOICES = ("mujoco", "physx", "mujoco-warp")
+"""`--sim`'s engines: sim.env.ENGINES, spelled here so that the parser needs no simulator
+import (tests/test_warp.py holds them equal)."""
+
+
+def add_sim_argument(p: argparse.ArgumentParser, help: str) -> None:
+    """`--sim`, the one engine flag of train, eval and the benches."""
+    p.add_argument("--sim", choices=SIM_CHOICES, default="mujoco", help=help)
 
 
 def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:

@@ -188,7 +188,6 @@ def bench_warp(
     config: TaskConfig = EVAL_CONFIG,
     rounds: int = 10,
     seed: int = 0,
-    device: str | None = None,
 ) -> dict:
     """bench_sim on MuJoCo Warp: env steps/s at `envs` envs (one world each; with fewer envs
     than modules the envs take the modules in turns, as in training), with random actions and
@@ -201,8 +200,6 @@ def bench_warp(
     env = PegInHoleVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True,
                           engine="mujoco-warp")  # fmt: skip
     sim = env.sim
-    if device is not None and device != sim.device:
-        raise ValueError(f"device = {device!r}: this machine's Warp device is {sim.device!r}")
     build_s = time.perf_counter() - t0
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
     t0 = time.perf_counter()

@@ -139,7 +139,8 @@ class PegInHoleVecEnv:
         self.control_dt = self.cfg.control_dt
         self.stateful = engine == "mujoco"
         """Whether get_state / set_state work (rl/vec_env.py's is_stateful): MuJoCo's state is
-        arrays; PhysX's scene is not saved, so a run on it resumes from a fresh reset."""
+        arrays; PhysX's scene and MuJoCo Warp's device state are not saved, so a run on them
+        resumes from a fresh reset."""
         self.protocol: dict[str, Any] = {}
         """How this env evaluates, for evaluation files (make_eval_env fills it)."""
 
@@ -503,8 +504,8 @@ def make_train_env(
     paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
-    simulated with the physics its files carry). engine: mujoco, or physx (the referee: one
-    env per module, so num_envs must cover the dataset's modules)."""
+    simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
+    serves one env per module, so num_envs must cover the dataset's modules)."""
     root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
@@ -548,8 +549,8 @@ def make_eval_env(
     paper's). The env's `protocol` dict names the dataset (folder and content hash), the
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
-    keep_physics: as for make_train_env. engine: mujoco, or physx (the referee, with the
-    PhysX settings `physx`)."""
+    keep_physics: as for make_train_env. engine: one of ENGINES (physx with the PhysX
+    settings `physx`)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)

@@ -148,7 +148,6 @@ class WarpBatchSim(PegStateViews):
                     "peg); this peg is made of pieces"
                 )
             pool.setdefault(a.id, a)
-        self.module_ids = list(pool)
         self.slots = max(len(a.pieces) for a in pool.values())
         self.peg_geom = self.slots
         """The peg's geom id in every world."""
@@ -186,7 +185,7 @@ class WarpBatchSim(PegStateViews):
             for f in dataclasses.fields(mjw.Model)
             if getattr(f.type, "shape", ())[:1] == ("*",) and hasattr(self.mjm, f.name)
         ]
-        first = own[self.module_ids[0]]
+        first = next(iter(own.values()))
         self._fields = ["geom_dataid"] + [
             name
             for name in batched
@@ -225,8 +224,7 @@ class WarpBatchSim(PegStateViews):
         }
         """Per-world values of the batched fields (host copies, uploaded when changed)."""
         self.env_module = [a.id for a in env_assets]
-        self._xpos = np.stack([self._slot_pose[a.id][0] for a in env_assets])
-        self._xmat = np.stack([self._slot_pose[a.id][1] for a in env_assets])
+        """Each world's module id."""
         self._upload_all = True
         """Every world's fields go up at the next step (at the start)."""
         self._moved: set[int] = set()
@@ -240,7 +238,7 @@ class WarpBatchSim(PegStateViews):
         self._checks = K.Checks.of(task.physics)
         self._graph = None
 
-    # ------------------------------------------------------------------ state access
+    # ------------------------------------------------------------------ contact and modules
 
     def set_contact(self, idx: np.ndarray, friction: np.ndarray, dampratio: np.ndarray) -> None:
         """Peg-module contact of envs `idx`: Coulomb friction (k,) and damping ratio (k,)
@@ -264,7 +262,6 @@ class WarpBatchSim(PegStateViews):
             raise ValueError(f"module {module_id!r} was not given to this WarpBatchSim")
         for f, v in self._per_module[module_id].items():
             self.host[f][e] = v
-        self._xpos[e], self._xmat[e] = self._slot_pose[module_id]
         self.env_module[e] = module_id
         self._moved.add(int(e))
 
@@ -283,8 +280,9 @@ class WarpBatchSim(PegStateViews):
                 arr = getattr(self.model, f)
                 arr.assign(wp.array(self._cast(f, v), dtype=arr.dtype, device=self.device))
             xpos, xmat = self.data.geom_xpos.numpy(), self.data.geom_xmat.numpy()
-            xpos[:, : self.slots] = self._xpos
-            xmat[:, : self.slots] = self._xmat.reshape(self.num_envs, self.slots, 3, 3)
+            for e, mid in enumerate(self.env_module):
+                xpos[e, : self.slots] = self._slot_pose[mid][0]
+                xmat[e, : self.slots] = self._slot_pose[mid][1].reshape(self.slots, 3, 3)
             self.data.geom_xpos.assign(xpos)
             self.data.geom_xmat.assign(xmat)
             self._upload_all = False
@@ -297,8 +295,9 @@ class WarpBatchSim(PegStateViews):
                 # a world row of the fixed geoms' poses; the peg's is recomputed every step
                 xpos = np.zeros((self.mjm.ngeom, 3), np.float32)
                 xmat = np.tile(np.eye(3, dtype=np.float32), (self.mjm.ngeom, 1, 1))
-                xpos[: self.slots] = self._xpos[e]
-                xmat[: self.slots] = self._xmat[e].reshape(self.slots, 3, 3)
+                pos, mat = self._slot_pose[self.env_module[e]]
+                xpos[: self.slots] = pos
+                xmat[: self.slots] = mat.reshape(self.slots, 3, 3)
                 self.data.geom_xpos[e].assign(wp.array(xpos, dtype=wp.vec3, device=self.device))
                 self.data.geom_xmat[e].assign(wp.array(xmat, dtype=wp.mat33, device=self.device))
         contact = sorted(self._contact.difference(worlds))

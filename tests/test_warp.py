@@ -144,7 +144,9 @@ def test_what_changes_between_steps_reaches_the_device() -> None:
     want = sim._per_module[mods[2].id]
     np.testing.assert_array_equal(sim.model.geom_dataid.numpy()[0], want["geom_dataid"])
     np.testing.assert_allclose(sim.model.geom_pos.numpy()[0], want["geom_pos"], atol=1e-7)
-    np.testing.assert_allclose(sim.data.geom_xpos.numpy()[0, : sim.slots], sim._xpos[0], atol=1e-7)
+    np.testing.assert_allclose(
+        sim.data.geom_xpos.numpy()[0, : sim.slots], sim._slot_pose[mods[2].id][0], atol=1e-7
+    )
     assert sim.env_module == [mods[2].id, mods[1].id]
 
 
@@ -165,9 +167,30 @@ def test_a_world_out_of_contact_room_is_refused_not_truncated() -> None:
         sim.step(np.zeros((1, 6)))
 
 
+def test_the_sim_flag_offers_every_engine() -> None:
+    from rl.commands import SIM_CHOICES
+    from sim.env import ENGINES
+
+    assert SIM_CHOICES == ENGINES
+
+
 def test_a_missing_warp_extra_is_named_in_one_line() -> None:
     from cli import missing_extra_message
 
     msg = missing_extra_message("eval", "mujoco_warp", "mujoco-warp")
     assert msg is not None and "[warp]" in msg and "\n" not in msg
     assert "[warp]" in (missing_extra_message("bench", "warp._src.context", "mujoco-warp") or "")
+
+
+def test_bench_sim_runs_on_warp(capsys) -> None:
+    """`assetgen bench sim --sim mujoco-warp`: the env's rate, the raw rate, the expert's."""
+    import json
+
+    from cli import main
+
+    args = ["bench", "sim", "--sim", "mujoco-warp", "--dataset", str(_dataset())]
+    assert main([*args, "--envs", "2", "--steps", "2", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res["engine"] == "mujoco-warp" and res["envs"] == 2 and res["modules"] == 3
+    for key in ("env_steps_per_s", "rollout_steps_per_s", "expert_env_steps_per_s"):
+        assert res[key] > 0, key
