@@ -18,15 +18,9 @@ import time
 from pathlib import Path
 
 from assetgen.dataset.reader import Dataset
-from assetgen.physics.report import LIMITS, check_module
+from assetgen.physics.report import check_module, failures
 
 FLAG = '<flag multiccd="enable"'
-
-
-def failing(report: dict, module: dict) -> list[str]:
-    """The checks a module's figures fail, as the report names them."""
-    bad = [f for f, limit in LIMITS.items() if module.get(f, 0.0) > limit]
-    return bad + [f for f in ("passed_through", "unsettled") if module.get(f)]
 
 
 def recheck(report_path: Path, dataset: str | Path, out: Path) -> dict:
@@ -52,7 +46,7 @@ def recheck(report_path: Path, dataset: str | Path, out: Path) -> dict:
             shutil.rmtree(tmp, ignore_errors=True)
         rows[mid] = {
             "libccd": fig,
-            "libccd_failed": failing(report, fig),
+            "libccd_failed": failures(fig),
             "nativeccd_failed": report["failed"][mid],
             "nativeccd_seconds": report["modules"][mid]["seconds"],
         }

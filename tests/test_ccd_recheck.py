@@ -6,8 +6,8 @@ import json
 from pathlib import Path
 
 from assetgen.dataset.reader import Dataset
-from assetgen.physics.report import check_module
-from benchmarks.ccd_recheck import failing, recheck
+from assetgen.physics.report import check_module, failures
+from benchmarks.ccd_recheck import recheck
 
 
 def test_libccd_gives_module_1_true_contacts(tiny_dataset: Path, tmp_path: Path) -> None:
@@ -15,8 +15,8 @@ def test_libccd_gives_module_1_true_contacts(tiny_dataset: Path, tmp_path: Path)
     millimetres deep: the strict xfails of test_dataset_exports.py); with libccd its checks
     pass, and the recheck says so."""
     native = check_module(Dataset(tiny_dataset).paths("000001")["mjcf"])
-    assert failing({}, native), "the glitch is gone from MuJoCo: see test_dataset_exports.py"
-    report = {"modules": {"000001": native}, "failed": {"000001": failing({}, native)}}
+    assert failures(native), "the glitch is gone from MuJoCo: see test_dataset_exports.py"
+    report = {"modules": {"000001": native}, "failed": {"000001": failures(native)}}
     src = tmp_path / "report.json"
     src.write_text(json.dumps(report))
     rows = recheck(src, tiny_dataset, tmp_path / "out.json")
