@@ -188,12 +188,22 @@ import (tests/test_warp.py holds them equal)."""
 def add_sim_argument(p: argparse.ArgumentParser, help: str) -> None:
     """`--sim`, the one engine flag of train, eval and the benches."""
     p.add_argument("--sim", choices=SIM_CHOICES, default="mujoco", help=help)
+    p.add_argument(
+        "--allow-cpu",
+        action="store_true",
+        help="--sim mujoco-warp without a GPU: run on Warp's CPU device (hundreds of times "
+        "slower than --sim mujoco; for checks only)",
+    )
 
 
 def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """`engine=` for the env factories from --sim, only when it is not the default engine
     (factories written before the flag need not take it)."""
     engine = getattr(args, "sim", None) or "mujoco"
+    if engine == "mujoco-warp":
+        from sim.warp_batch import require_gpu
+
+        require_gpu(bool(getattr(args, "allow_cpu", False)))
     return {} if engine == "mujoco" else {"engine": engine}
 
 
@@ -329,7 +339,6 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     record = getattr(args, "record", None)
     keep = bool(getattr(args, "keep_dataset_physics", False))
     engine = getattr(args, "sim", None) or "mujoco"
-    on_engine = _engine_kwargs(args)
     # a subset reaches the factories only when asked for: the protocol plays every module
     limit = getattr(args, "modules", None)
     subset: dict[str, Any] = {} if limit is None else {"modules": limit}
@@ -338,6 +347,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         if limit is not None and limit < 1:
             raise ValueError(f"--modules {limit}: give at least 1 module, or leave it out")
+        on_engine = _engine_kwargs(args)
         sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
         if sequence and on_engine:
             raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")

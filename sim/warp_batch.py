@@ -90,6 +90,24 @@ def default_device() -> str:
     return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
+CPU_SLOWDOWN = 270
+"""How many times slower an env step is on Warp's CPU device than on the CPU simulator, one
+thread each: 14 against 3,866 env steps/s at 16 envs on the 2-core machine (`bench_warp`
+and `bench_sim`, 20 control steps, 2026-11-27)."""
+
+
+def require_gpu(allow_cpu: bool = False) -> None:
+    """ValueError when Warp sees no GPU and the user has not allowed its CPU device: the
+    commands would otherwise run on the CPU, orders of magnitude slower, without a word."""
+    if allow_cpu or default_device() != "cpu":
+        return
+    raise ValueError(
+        "--sim mujoco-warp: Warp sees no CUDA GPU on this machine and would run on the CPU, "
+        f"about {CPU_SLOWDOWN} times slower than --sim mujoco; use --sim mujoco, or pass "
+        "--allow-cpu to run it anyway"
+    )
+
+
 def slot_spec(asset: ModuleAsset, task: TaskConfig, slots: int) -> mujoco.MjSpec:
     """The CPU simulator's spec of one module (`sim.scene.build_spec`), its pieces padded to
     `slots` geoms with parked tiny meshes. The parked geoms follow the pieces on the world

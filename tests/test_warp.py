@@ -188,9 +188,34 @@ def test_bench_sim_runs_on_warp(capsys) -> None:
 
     from cli import main
 
-    args = ["bench", "sim", "--sim", "mujoco-warp", "--dataset", str(_dataset())]
+    args = ["bench", "sim", "--sim", "mujoco-warp", "--dataset", str(_dataset()), "--allow-cpu"]
     assert main([*args, "--envs", "2", "--steps", "2", "--json"]) == 0
     res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert res["engine"] == "mujoco-warp" and res["envs"] == 2 and res["modules"] == 3
     for key in ("env_steps_per_s", "rollout_steps_per_s", "expert_env_steps_per_s"):
         assert res[key] > 0, key
+
+
+@pytest.mark.parametrize("command", ["bench", "eval", "train"])
+def test_without_a_gpu_warp_asks_for_allow_cpu(command, monkeypatch, capsys, tmp_path) -> None:
+    """With no CUDA GPU, --sim mujoco-warp stops in one line that says Warp would run on the
+    CPU and how much slower, and names --allow-cpu, before any env is built."""
+    import sim.warp_batch
+    from cli import main
+    from sim import env as sim_env
+
+    monkeypatch.setattr(sim.warp_batch, "default_device", lambda: "cpu")
+    built = []
+    monkeypatch.setattr(sim_env.PegInHoleVecEnv, "__init__", lambda *a, **k: built.append(a))
+    data = str(_dataset())
+    argv = {
+        "bench": ["bench", "sim", "--dataset", data, "--envs", "2", "--steps", "2"],
+        "eval": ["eval", "--agent", "random", "--dataset", data, "--attempts", "1"],
+        "train": ["train", "--algo", "ppo", "--dataset", data, "--steps", "64"],
+    }[command]
+    if command == "train":
+        argv += ["--out", str(tmp_path / "run")]
+    assert main([*argv, "--sim", "mujoco-warp"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "--allow-cpu" in err and f"{sim.warp_batch.CPU_SLOWDOWN} times slower" in err, err
+    assert "\n" not in err and not built
