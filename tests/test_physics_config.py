@@ -24,6 +24,8 @@ OPT_FIELDS = (
     "enableflags",
     "tolerance",
     "ls_tolerance",
+    "ccd_iterations",
+    "ccd_tolerance",
 )
 
 
@@ -64,6 +66,27 @@ def test_exported_file_is_the_training_physics(index: int) -> None:
     ps, pe = sim.body("peg").id, exported.body("peg").id
     np.testing.assert_allclose(sim.body_mass[ps], exported.body_mass[pe])
     np.testing.assert_allclose(sim.body_inertia[ps], exported.body_inertia[pe], rtol=1e-6)
+
+
+def test_convex_search_settings_reach_file_and_simulator_alike() -> None:
+    """ccd_iterations and ccd_tolerance (a benchmark's --set) reach the simulator's model and
+    the `<option>` the MJCF writer uses alike; at MuJoCo's defaults the file does not name
+    them, so files written before the fields keep their bytes."""
+    from dataclasses import replace
+
+    from assetgen.core.mujoco_config import option_xml
+
+    asset = modules()[0]
+    default = physics_for(asset.clearance)
+    assert "ccd_" not in "".join(option_xml(default))
+    physics = replace(default, ccd_iterations=200, ccd_tolerance=1e-9).validate()
+    sim = build_model([asset], physics)
+    doc = "<mujoco>" + "".join(option_xml(physics)) + "</mujoco>"
+    exported = mujoco.MjModel.from_xml_string(doc)
+    assert sim.opt.ccd_iterations == exported.opt.ccd_iterations == 200
+    assert sim.opt.ccd_tolerance == exported.opt.ccd_tolerance == 1e-9
+    with pytest.raises(ValueError, match=r"ccd_tolerance = 0\.0: give a positive length"):
+        replace(default, ccd_tolerance=0.0).validate()
 
 
 PINNED = {

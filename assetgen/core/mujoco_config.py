@@ -102,6 +102,12 @@ class PhysicsConfig:
     rocking on one point."""
     nativeccd: bool = True
     """MuJoCo's own convex collision (GJK/EPA) for mesh pairs; False: libccd's."""
+    ccd_iterations: int = 35
+    """Iterations of the convex collision's distance and penetration search (MuJoCo's
+    default; the MJCF names it only when it differs)."""
+    ccd_tolerance: float = 1e-6
+    """Tolerance (m) of that search (MuJoCo's default; the MJCF names it only when it
+    differs)."""
 
     @property
     def refsafe(self) -> bool:
@@ -151,6 +157,15 @@ class PhysicsConfig:
                 "friction, torsional_friction and rolling_friction must be >= 0",
             ),
             (self.impratio >= 1, f"impratio = {self.impratio!r}: give 1 or more"),
+            (
+                self.ccd_iterations >= 1,
+                f"ccd_iterations = {self.ccd_iterations!r}: give at least 1, e.g. 35",
+            ),
+            (
+                self.ccd_tolerance > 0,
+                f"ccd_tolerance = {self.ccd_tolerance!r}: give a positive length in metres, "
+                "e.g. 1e-6",
+            ),
             (
                 0 <= self.contact_margin < 1e-4,
                 f"contact_margin = {self.contact_margin!r} m: give 0 to 1e-4, e.g. 1e-6",
@@ -308,6 +323,8 @@ def apply_to_spec(spec, physics: PhysicsConfig) -> None:
     }[physics.cone]
     opt.impratio = physics.impratio
     opt.noslip_iterations = physics.noslip_iterations
+    opt.ccd_iterations = physics.ccd_iterations
+    opt.ccd_tolerance = physics.ccd_tolerance
     if not physics.multiccd:
         opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MULTICCD
     if not physics.nativeccd:
@@ -330,6 +347,18 @@ def _vec(v) -> str:
     return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
 
 
+def _ccd_attributes(physics: PhysicsConfig) -> str:
+    """The convex collision's search settings as `<option>` attributes, where they differ
+    from MuJoCo's defaults (files written before the fields keep their bytes)."""
+    default = PhysicsConfig()
+    out = ""
+    if physics.ccd_iterations != default.ccd_iterations:
+        out += f' ccd_iterations="{physics.ccd_iterations}"'
+    if physics.ccd_tolerance != default.ccd_tolerance:
+        out += f' ccd_tolerance="{_num(physics.ccd_tolerance)}"'
+    return out
+
+
 def option_xml(physics: PhysicsConfig, indent: str = "  ") -> list[str]:
     """The `<option>` element (with its `<flag>`) as MJCF lines: what apply_to_spec sets."""
     flags = [
@@ -343,7 +372,8 @@ def option_xml(physics: PhysicsConfig, indent: str = "  ") -> list[str]:
         f'{indent}<option timestep="{_num(physics.timestep)}" gravity="0 0 0"'
         f' integrator="{physics.integrator}" solver="Newton"'
         f' iterations="{physics.iterations}" cone="{physics.cone}"'
-        f' impratio="{_num(physics.impratio)}" noslip_iterations="{physics.noslip_iterations}">',
+        f' impratio="{_num(physics.impratio)}" noslip_iterations="{physics.noslip_iterations}"'
+        f"{_ccd_attributes(physics)}>",
         f"{indent}  <flag {' '.join(flags)}/>",
         f"{indent}</option>",
     ]
