@@ -19,6 +19,13 @@ def _pct(s: dict, key: str) -> str:
     return f"{100 * s[key] / s['clearance']:.0f} % ({s[key] * 1e3:.3f} mm)"
 
 
+def _friction(s: dict) -> str:
+    """The range of effective over configured friction; '–' for a run without the case."""
+    lo = [v for k, v in s.items() if k.startswith("friction_") and k.endswith("_min")]
+    hi = [v for k, v in s.items() if k.startswith("friction_") and k.endswith("_max")]
+    return f"{min(lo):.3f}–{max(hi):.3f}" if lo else "–"
+
+
 ROWS = (
     ("modules / pushes / impacts", lambda s: f"{s['modules']} / {s['pushes']} / {s['impacts']}"),
     ("pass-throughs", lambda s: str(s["passed_through"])),
@@ -36,10 +43,7 @@ ROWS = (
     ),
     (
         "sliding friction / configured",
-        lambda s: (
-            f"{min(v for k, v in s.items() if k.endswith('_min') and 'friction' in k):.3f}"
-            f"–{max(v for k, v in s.items() if k.endswith('_max') and 'friction' in k):.3f}"
-        ),
+        lambda s: _friction(s),
     ),
     ("rebound e, worst", lambda s: f"{s['rebound_worst']:.3f}"),
     ("seconds (2 threads)", lambda s: f"{s['seconds']:.0f}"),

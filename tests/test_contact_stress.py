@@ -107,3 +107,18 @@ def test_physics_for_finer_clearances_steps_finer() -> None:
         assert p.contact_timeconst >= p.timestep
         p.validate()
     assert PhysicsConfig() == coarse
+
+
+def test_contact_table_puts_runs_side_by_side(project) -> None:
+    """benchmarks/contact_table.py: one column per run, each target met or missed; a run
+    without a case (pushes only) shows '–' for its figures instead of failing."""
+    from benchmarks.contact_table import table
+
+    full = summarize(project, modules()[0].clearance)
+    pushes = summarize([r for r in project if r["kind"] == "push"], modules()[0].clearance)
+    docs = [{"summaries": [s], "seconds": 1.0} for s in (full, pushes)]
+    lines = table(docs, ["all", "pushes"]).splitlines()
+    assert lines[0] == "| figure | all | pushes |"
+    friction = next(line for line in lines if line.startswith("| sliding friction"))
+    assert friction.endswith("| – |") and friction.split("|")[2].strip()[0].isdigit()
+    assert "| target: no pass-through | met | met |" in lines
