@@ -582,6 +582,13 @@ def missing_extra_message(command: str, module: str, engine: str | None = None) 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "sim", None) == "mujoco-warp":
+            from sim.warp_batch import require_gpu
+
+            try:  # before any env is built: without a GPU Warp would run on the CPU
+                require_gpu(bool(getattr(args, "allow_cpu", False)))
+            except ValueError as e:
+                return _err(str(e))
         return args.func(args)
     except ModuleNotFoundError as e:
         message = missing_extra_message(args.command, e.name or "", getattr(args, "sim", None))

@@ -200,10 +200,6 @@ def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """`engine=` for the env factories from --sim, only when it is not the default engine
     (factories written before the flag need not take it)."""
     engine = getattr(args, "sim", None) or "mujoco"
-    if engine == "mujoco-warp":
-        from sim.warp_batch import require_gpu
-
-        require_gpu(bool(getattr(args, "allow_cpu", False)))
     return {} if engine == "mujoco" else {"engine": engine}
 
 

@@ -249,9 +249,6 @@ def bench_main(args: argparse.Namespace) -> int:
     root, _ = resolve(getattr(args, "dataset", None) or "test")
     engine = getattr(args, "sim", None) or "mujoco"
     if engine == "mujoco-warp":
-        from sim.warp_batch import require_gpu
-
-        require_gpu(bool(getattr(args, "allow_cpu", False)))
         res = bench_warp(root, getattr(args, "envs", None) or 1024,
                          getattr(args, "steps", None) or 200)  # fmt: skip
     elif engine == "physx":
