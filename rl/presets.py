@@ -59,9 +59,10 @@ PRESETS: dict[str, dict[str, Setup]] = {
         ),
     },
     "cpu": {
-        # sized on a 2-core CPU: the curriculum spans about half of
-        # what a 60-minute run reaches, so the second half trains on the full spawn ranges
-        # it is evaluated on
+        # sized on a 2-core CPU under physics version 1, where the curriculum spanned about
+        # half of what a 60-minute run reached. Version 2's steps cost about 9 times more: PPO
+        # now reaches 3.2 M env steps in 60 minutes (64 envs), so its 3 M-step curriculum
+        # spans nearly the whole run (docs/results/README.md, teacher-free candidates)
         "ppo": Setup(
             PPOConfig(
                 hidden=(256, 256),
