@@ -297,12 +297,9 @@ class WarpBatchSim(PegStateViews):
             for f, v in self.host.items():
                 arr = getattr(self.model, f)
                 arr.assign(wp.array(self._cast(f, v), dtype=arr.dtype, device=self.device))
-            xpos, xmat = self.data.geom_xpos.numpy(), self.data.geom_xmat.numpy()
-            for e, mid in enumerate(self.env_module):
-                xpos[e, : self.slots] = self._slot_pose[mid][0]
-                xmat[e, : self.slots] = self._slot_pose[mid][1].reshape(self.slots, 3, 3)
-            self.data.geom_xpos.assign(xpos)
-            self.data.geom_xmat.assign(xmat)
+            rows = [self._pose_rows(mid) for mid in self.env_module]
+            self.data.geom_xpos.assign(np.stack([r[0] for r in rows]))
+            self.data.geom_xmat.assign(np.stack([r[1] for r in rows]))
             self._upload_all = False
         else:
             worlds = sorted(self._moved)
@@ -310,12 +307,7 @@ class WarpBatchSim(PegStateViews):
                 for f, v in self.host.items():
                     arr = getattr(self.model, f)[e]
                     arr.assign(wp.array(self._cast(f, v[e]), dtype=arr.dtype, device=self.device))
-                # a world row of the fixed geoms' poses; the peg's is recomputed every step
-                xpos = np.zeros((self.mjm.ngeom, 3), np.float32)
-                xmat = np.tile(np.eye(3, dtype=np.float32), (self.mjm.ngeom, 1, 1))
-                pos, mat = self._slot_pose[self.env_module[e]]
-                xpos[: self.slots] = pos
-                xmat[: self.slots] = mat.reshape(self.slots, 3, 3)
+                xpos, xmat = self._pose_rows(self.env_module[e])
                 self.data.geom_xpos[e].assign(wp.array(xpos, dtype=wp.vec3, device=self.device))
                 self.data.geom_xmat[e].assign(wp.array(xmat, dtype=wp.mat33, device=self.device))
         contact = sorted(self._contact.difference(worlds))
@@ -338,6 +330,16 @@ class WarpBatchSim(PegStateViews):
             )
         self._moved.clear()
         self._contact.clear()
+
+    def _pose_rows(self, module_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """A world's geom poses (ngeom, 3) and (ngeom, 3, 3) on `module_id`: its fixed slots'
+        poses, the peg's left at the origin (the step recomputes it)."""
+        xpos = np.zeros((self.mjm.ngeom, 3), np.float32)
+        xmat = np.tile(np.eye(3, dtype=np.float32), (self.mjm.ngeom, 1, 1))
+        pos, mat = self._slot_pose[module_id]
+        xpos[: self.slots] = pos
+        xmat[: self.slots] = mat.reshape(self.slots, 3, 3)
+        return xpos, xmat
 
     @staticmethod
     def _cast(field: str, v: np.ndarray) -> np.ndarray:
