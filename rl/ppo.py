@@ -7,6 +7,7 @@ info["final_obs"]; terminated ones are not.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,6 +54,24 @@ class PPOConfig:
     desired_kl: float | None = None
     """If set, adapt the learning rate after each minibatch to keep KL(old||new) near this
     (rsl_rl's adaptive schedule: /1.5 above 2x, x1.5 below 0.5x, within [1e-5, 1e-2])."""
+    final_std: float | None = None
+    """If set, the action std is capped by a schedule that falls log-linearly from
+    exp(init_log_std) at `std_decay_start` env steps to this at `std_decay_end`, and stays
+    there. Noise then cannot stay part of the strategy: the mean action, which the
+    deterministic policy plays, has to do the job alone by the end of training."""
+    std_decay_start: int = 0
+    """Env steps (summed over envs) at which the std cap starts to fall."""
+    std_decay_end: int = 0
+    """Env steps at which the std cap reaches `final_std`."""
+
+    def std_cap(self, env_steps: int) -> float | None:
+        """The cap on each action std after `env_steps` env steps (None: no cap)."""
+        if self.final_std is None:
+            return None
+        span = self.std_decay_end - self.std_decay_start
+        f = 1.0 if span <= 0 else (env_steps - self.std_decay_start) / span
+        f = min(max(f, 0.0), 1.0)
+        return math.exp((1.0 - f) * self.init_log_std + f * math.log(self.final_std))
 
     def validate(self) -> PPOConfig:
         checks = {
@@ -62,6 +81,10 @@ class PPOConfig:
             "0 < gamma <= 1": 0 < self.gamma <= 1,
             "0 <= gae_lambda <= 1": 0 <= self.gae_lambda <= 1,
             "learning_rate > 0": self.learning_rate > 0,
+            "final_std is None or > 0": self.final_std is None or self.final_std > 0,
+            "0 <= std_decay_start <= std_decay_end": (
+                0 <= self.std_decay_start <= self.std_decay_end
+            ),
         }
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
@@ -140,6 +163,7 @@ class PPO:
         self.bootstrap = z(t, n)  # V(final_obs) where truncated, else 0
         self.truncated = z(t, n)
         self.step = 0
+        self.updates = 0  # rollouts learned from: env steps = updates * horizon * num_envs
 
     def _t(self, a: np.ndarray) -> torch.Tensor:
         return torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device)
@@ -260,6 +284,11 @@ class PPO:
                     sums[k] += v
                 n_updates += 1
         self.net.obs_norm.update(obs)  # statistics change between rollouts only
+        self.updates += 1
+        cap = cfg.std_cap(self.updates * b)
+        if cap is not None:  # the parameter itself is capped: checkpoints carry the std used
+            with torch.no_grad():
+                self.net.log_std.clamp_(max=math.log(cap))
         out = {k: v / n_updates for k, v in sums.items()}
         out["learning_rate"] = self.opt.param_groups[0]["lr"]
         out["action_std"] = self.net.log_std.exp().mean().item()
@@ -281,9 +310,10 @@ class PPO:
         return {"net": self.net, "opt": self.opt}
 
     def extra_state(self) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
-        """(tensors, JSON-able values) beyond the modules: none, rollouts end at iteration
-        boundaries."""
-        return {}, {}
+        """(tensors, JSON-able values) beyond the modules: the rollouts learned from (the std
+        cap's clock); rollouts end at iteration boundaries, so no storage."""
+        return {}, {"updates": self.updates}
 
     def load_extra_state(self, tensors: dict[str, torch.Tensor], values: dict[str, Any]) -> None:
-        del tensors, values
+        del tensors
+        self.updates = int(values.get("updates", 0))  # checkpoints before the std cap: 0

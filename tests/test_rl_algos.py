@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -59,6 +60,39 @@ def test_ppo_rollout_bootstraps_truncation_from_final_obs() -> None:
     adv, ret = agent.compute_returns(o(2.0, 5.0))
     np.testing.assert_allclose(adv.numpy(), ADV, rtol=1e-6)
     np.testing.assert_allclose(ret.numpy(), np.add(ADV, VALUES), rtol=1e-6)
+
+
+def test_ppo_std_cap_falls_log_linearly_and_binds_the_parameter() -> None:
+    # init std e^-1 = 0.3679 at 100 env steps, 0.05 at 300: halfway (200) the geometric mean
+    cfg = PPOConfig(hidden=(4,), horizon=2, minibatch_size=4, epochs=1, init_log_std=-1.0,
+                    final_std=0.05, std_decay_start=100, std_decay_end=300)  # fmt: skip
+    assert cfg.std_cap(0) == pytest.approx(math.exp(-1.0))
+    assert cfg.std_cap(200) == pytest.approx(math.sqrt(math.exp(-1.0) * 0.05))
+    assert cfg.std_cap(300) == pytest.approx(0.05) and cfg.std_cap(10**9) == pytest.approx(0.05)
+    assert PPOConfig().std_cap(10**6) is None
+    with pytest.raises(ValueError, match="std_decay_start <= std_decay_end"):
+        PPOConfig(final_std=0.1, std_decay_start=5, std_decay_end=1).validate()
+    with pytest.raises(ValueError, match="final_std"):
+        PPOConfig(final_std=0.0).validate()
+    obs = np.zeros((2, 1), np.float32)
+    no = np.zeros(2, bool)
+    stds = {}
+    for c in (cfg, replace(cfg, final_std=None)):
+        torch.manual_seed(0)
+        agent = PPO(1, 1, 2, c)  # 4 env steps a rollout
+        for k in range(1, 101):
+            for _ in range(2):
+                agent.act(obs)
+                agent.process_step(obs, np.ones(2), no, no, {})
+            agent.update(obs)
+            cap = c.std_cap(4 * k)
+            assert cap is None or agent.net.log_std.exp().item() <= cap * (1 + 1e-6)
+        stds[c.final_std] = agent.net.log_std.exp().item()
+    assert stds[0.05] <= 0.05 * (1 + 1e-6) and stds[None] > 0.3  # uncapped, it stays wide
+    # the cap's clock survives a checkpoint
+    fresh = PPO(1, 1, 2, cfg)
+    fresh.load_extra_state({}, agent.extra_state()[1])
+    assert fresh.updates == 100
 
 
 def test_sac_target_hand_computed() -> None:
