@@ -54,6 +54,10 @@ class PPOConfig:
     desired_kl: float | None = None
     """If set, adapt the learning rate after each minibatch to keep KL(old||new) near this
     (rsl_rl's adaptive schedule: /1.5 above 2x, x1.5 below 0.5x, within [1e-5, 1e-2])."""
+    bounds_loss_coef: float = 0.0
+    """Weight of a penalty on policy means beyond +-1.1 (rl_games' bounds loss, used by
+    Isaac Gym's insertion tasks): actions are clipped to [-1, 1], so a mean far past a bound
+    costs the sampled policy nothing while its deterministic policy pushes at the limit."""
     final_std: float | None = None
     """If set, the action std is capped by a schedule that falls log-linearly from
     exp(init_log_std) at `std_decay_start` env steps to this at `std_decay_end`, and stays
@@ -81,6 +85,7 @@ class PPOConfig:
             "0 < gamma <= 1": 0 < self.gamma <= 1,
             "0 <= gae_lambda <= 1": 0 <= self.gae_lambda <= 1,
             "learning_rate > 0": self.learning_rate > 0,
+            "bounds_loss_coef >= 0": self.bounds_loss_coef >= 0,
             "final_std is None or > 0": self.final_std is None or self.final_std > 0,
             "0 <= std_decay_start <= std_decay_end": (
                 0 <= self.std_decay_start <= self.std_decay_end
@@ -119,6 +124,13 @@ def gae(
         last = delta + gamma * lam * not_done[t] * last
         adv[t] = last
     return adv, adv + values  # R_t = A_t + V(s_t): the value target
+
+
+def bounds_loss(mean: torch.Tensor, soft_bound: float = 1.1) -> torch.Tensor:
+    """E over the batch of sum_i max(|mu_i| - soft_bound, 0)^2: zero for means within the
+    soft bound. mean (B, act_dim) -> a scalar."""
+    excess = (mean.abs() - soft_bound).clamp_min(0.0)
+    return excess.pow(2).sum(-1).mean()
 
 
 class PPO:
@@ -267,6 +279,8 @@ class PPO:
                 v_loss = (ret[i] - self.net.value(obs[i])).pow(2).mean()
                 entropy = self.net.entropy(std)
                 loss = pg + cfg.value_coef * v_loss - cfg.entropy_coef * entropy
+                if cfg.bounds_loss_coef > 0:
+                    loss = loss + cfg.bounds_loss_coef * bounds_loss(mean)
                 check_finite("PPO", loss, policy_loss=pg, value_loss=v_loss)
                 self.opt.zero_grad(set_to_none=True)
                 loss.backward()

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor
-from rl.ppo import PPO, PPOConfig, gae
+from rl.ppo import PPO, PPOConfig, bounds_loss, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
 from rl.sac import SAC, SACConfig, q_filter, soft_target
@@ -60,6 +60,32 @@ def test_ppo_rollout_bootstraps_truncation_from_final_obs() -> None:
     adv, ret = agent.compute_returns(o(2.0, 5.0))
     np.testing.assert_allclose(adv.numpy(), ADV, rtol=1e-6)
     np.testing.assert_allclose(ret.numpy(), np.add(ADV, VALUES), rtol=1e-6)
+
+
+def test_bounds_loss_hand_computed_and_pulls_the_mean_in() -> None:
+    # row 0: |1.5| - 1.1 = 0.4 -> 0.16, -2.1 -> 1.0, 0.3 inside -> 0: 1.16; row 1: all inside
+    mean = torch.tensor([[1.5, -2.1, 0.3], [1.0, -1.1, 0.0]])
+    assert bounds_loss(mean).item() == pytest.approx(1.16 / 2)
+    with pytest.raises(ValueError, match="bounds_loss_coef"):
+        PPOConfig(bounds_loss_coef=-1.0).validate()
+    # in PPO's update: a mean started at 3 is pulled back towards the soft bound only with it
+    obs = np.zeros((2, 1), np.float32)
+    no = np.zeros(2, bool)
+    means = {}
+    for coef in (0.0, 1.0):
+        torch.manual_seed(0)
+        cfg = PPOConfig(hidden=(4,), horizon=2, minibatch_size=4, epochs=1, learning_rate=1e-2,
+                        bounds_loss_coef=coef)  # fmt: skip
+        agent = PPO(1, 1, 2, cfg)
+        with torch.no_grad():
+            agent.net.actor[-1].bias.fill_(3.0)
+        for _ in range(50):
+            for _ in range(2):
+                agent.act(obs)
+                agent.process_step(obs, np.zeros(2), no, no, {})
+            agent.update(obs)
+        means[coef] = agent.net.dist(torch.zeros(1, 1))[0].item()
+    assert means[0.0] > 2.9 and means[1.0] < 2.5
 
 
 def test_ppo_std_cap_falls_log_linearly_and_binds_the_parameter() -> None:
