@@ -28,15 +28,23 @@ def run(
     """One episode per module; the jams' figures (see module doc)."""
     import torch
 
-    from rl.runner import load_agent
+    from rl.runner import load_agent, reset_hook
     from sim.env import make_eval_env
 
     torch.set_num_threads(1)
     torch.manual_seed(seed)
-    agent, _ = load_agent(checkpoint, None)
+    agent, meta = load_agent(checkpoint, None)
     env = make_eval_env(dataset, None, seed, modules=modules)
+    policy_env = env
+    if meta.get("stack", 1) > 1:  # the policy sees its training's stack of observations
+        from rl.stack import StackObs
+
+        policy_env = StackObs(env, meta["stack"])
     n, steps, tail = env.num_envs, env.cfg.max_steps, 50
-    obs = env.reset(seed)
+    obs = policy_env.reset(seed)
+    reset = reset_hook(agent)  # a recurrent policy restarts its state with each episode
+    if reset is not None:
+        reset(np.ones(n, dtype=bool))
     pos = np.zeros((tail, n, 3))
     below = np.zeros(n)
     tilt = np.zeros(n)
@@ -52,7 +60,9 @@ def run(
             pos[t - steps + tail] = rel[:, :3, 3] * 1e3
             tilt = np.degrees(np.arccos(np.clip(rel[:, 2, 2], -1.0, 1.0)))
             acts[t - steps + tail] = np.clip(a, -1.0, 1.0)
-        obs, _, terminated, truncated, info = env.step(a)
+        obs, _, terminated, truncated, info = policy_env.step(a)
+        if reset is not None:
+            reset(terminated | truncated)
         first = (terminated | truncated) & ~ended
         success[first] = np.asarray(info["success"])[first]
         # an episode that ends before the limit restarts: only the first counts
