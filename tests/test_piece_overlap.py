@@ -118,6 +118,29 @@ def test_union_of_the_pieces_is_the_module(module):
     assert volume(pieces) > g.module_volume * (1 + 1e-3)
 
 
+def test_each_face_of_the_hole_is_a_face_of_one_piece_only(module):
+    """No two pieces share a face of the hole: a peg face lying flat on two coplanar faces
+    of two pieces is where MuJoCo 4.0's multiccd returned contacts tens of mm deep
+    (docs/physics.md). Each hole plane holds faces (triangles of positive area) of one
+    piece, its wall piece; neighbours meet it along edges only."""
+    g, pieces, *_ = module
+    hp = g.hole_planes
+    for i, (n, d) in enumerate(zip(hp[:, :3], hp[:, 3], strict=True)):
+        holders = []
+        for s, m in enumerate(pieces):
+            tri = m.vertices[m.faces]
+            on = np.all(np.abs(tri @ n - d) < 1e-7, axis=1)
+            # on the hole's face itself, not on its plane past the hole's edges (inside the
+            # material, where a neighbouring wall piece covers it)
+            centre = tri.mean(axis=1)
+            on &= (centre @ hp[:, :3].T - hp[:, 3]).max(axis=1) < 1e-7
+            t = tri[on]
+            area = np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+            if area.sum() > 1e-12:
+                holders.append(s)
+        assert len(holders) == 1, (i, holders)
+
+
 def test_every_point_of_the_module_is_in_a_piece(module):
     g, pieces, *_ = module
     rng = np.random.default_rng(0)
@@ -136,7 +159,7 @@ def test_points_near_every_seam_lie_in_two_pieces(module):
     does the piece of the cell it is in: two pieces. The plate's and sleeve's outer faces
     and the hole's step out of the module; the plate's underside steps out of the plate
     (there the sleeve reaches up into the plate instead)."""
-    g, pieces, cells, owners, cell_owners = module
+    g, pieces, cells, _, cell_owners = module
     t = g.params.plate_thickness
     rng = np.random.default_rng(1)
     tested = {"rival": 0, "local box side": 0, "into a wall piece": 0}
