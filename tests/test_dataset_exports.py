@@ -100,14 +100,6 @@ def test_every_mjcf_loads_and_the_peg_drops_onto_the_floor(tiny_dataset):
         assert not push["passed_through"], (mid, push)
 
 
-MULTICCD = (
-    "MuJoCo 4.0.0: with several contacts per pair (multiccd), a peg touching a piece face on "
-    "face (distance 0) got a 39 mm contact, which kicked it 1.4 mm into the floor "
-    "(test_multiccd_touching_faces_get_true_contacts); a positive contact margin avoids it "
-    "but skews sliding friction: docs/physics.md"
-)
-
-
 @pytest.fixture(scope="module")
 def physics_checks(tiny_dataset) -> dict[str, dict]:
     from assetgen.physics.report import check_module
@@ -115,10 +107,7 @@ def physics_checks(tiny_dataset) -> dict[str, dict]:
     return {mid: check_module(paths["mjcf"]) for mid, paths, _ in _modules(tiny_dataset)}
 
 
-@pytest.mark.parametrize(
-    "index",
-    [0, pytest.param(1, marks=pytest.mark.xfail(strict=True, reason=MULTICCD)), 2, 3, 4, 5],
-)
+@pytest.mark.parametrize("index", [0, 1, 2, 3, 4, 5])
 def test_every_mjcf_holds_the_peg_against_faces_and_corners(physics_checks, index) -> None:
     """Held down the axis (weight + 3 N), a peg pushed with 5 N towards each side
     face of the hole rests within the clearance + 0.1 mm along the push (the free travel
@@ -138,28 +127,6 @@ def test_every_mjcf_holds_the_peg_against_faces_and_corners(physics_checks, inde
     assert r["face_move_over_free"] < 0.1e-3, (mid, r)
     assert r["face_penetration_at_rest"] < 0.1e-3, (mid, r)
     assert r["penetration_at_rest"] < 0.1e-3, (mid, r)
-
-
-TOUCHING = [
-    0.0015421173675116827, -0.016737511666499155, -0.043380101729048395,
-    0.858713388952558, 0.05197405170053906, 0.042377808276173164, -0.5080493430260018,
-]  # fmt: skip
-"""A pose of module 000001's peg (free joint qpos), met by a 5 N push into a corner of its
-hole with the orientation held, in which the peg touches piece 9 face on face at zero
-distance and MuJoCo 4.0 reports a 39 mm contact with it (moved 1 nm, it does not)."""
-
-
-@pytest.mark.xfail(strict=True, reason=MULTICCD)
-def test_multiccd_touching_faces_get_true_contacts(tiny_dataset) -> None:
-    import mujoco
-
-    path = Dataset(tiny_dataset).paths("000001")["mjcf"]
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    d.qpos[:] = TOUCHING
-    mujoco.mj_forward(m, d)
-    deepest = -min((d.contact[i].dist for i in range(d.ncon)), default=0.0)
-    assert deepest < 1e-4, deepest
 
 
 def test_physics_report_in_parallel_gives_the_same_figures(tiny_dataset, tmp_path):

@@ -11,17 +11,25 @@ plane, so no piece comes nearer the seated peg than the clearance. The material 
 near the hole (a local box; the far plate is four plain boxes, so a broadphase prunes them)
 and the sleeve below it.
 
+Each face of the hole belongs to one piece alone, its wall piece: cell i within the sleeve's
+outline (its mitred outer planes and its box), from the sleeve's floor up through the plate
+to the mounting surface (inside the outline the plate is material too). The rest of cell i
+in the plate lies beyond that outline: one piece beyond the mitred plane, and one beyond each
+box plane that trims the outline within the cell. (When a sleeve piece and a plate piece both
+reached the same face, a peg face lying flat on it lay on two coplanar faces of two pieces,
+where MuJoCo 4.0's multiccd returned contacts tens of mm deep: docs/physics.md.)
+
 The cells tile the module and only touch; the pieces overlap instead (OVERLAP, why there).
-Each internal face moves OVERLAP into the neighbouring cell: the seams between cells (the
-rows s_j <= s_i, scaled to unit normals, so each seam moves that distance whatever the angle
+Internal faces move OVERLAP into the neighbouring cell: the seams between cells (the rows
+s_j <= s_i, scaled to unit normals, so each seam moves that distance whatever the angle
 between the faces), the local box's sides inside the plate (into the far boxes; those along
-y reach into those along x), and the sleeve's top at the plate's underside (into the plate;
-at most half the plate's thickness, where the sleeve itself ends). What bounds the module
-never moves: the plate's and the sleeve's outer planes, and each piece's own hole plane.
-So each piece still lies in the material and beyond its hole plane, inside the module, and
-contains the cell it grew from: their union is the module, with no seam left open. A sleeve
-piece that reaches past its neighbours' cells may cross another face's mitred outer plane:
-it gets that plane too (checked on its vertices).
+y reach into those along x), and the plate pieces' faces on the sleeve's outline (into the
+wall piece, and into the plate piece before them). What bounds the module never moves: the
+plate's and the sleeve's outer planes, and each piece's own hole plane. So each piece still
+lies in the material and beyond its hole plane, inside the module, and contains the cell it
+grew from: their union is the module, with no seam left open. A wall piece that reaches past
+its neighbours' cells may cross another face's mitred outer plane: it gets that plane too
+(checked on its vertices).
 
 Cells' vertices come from enumerating plane triples in one compiled loop over all of a
 module's cells (assetgen.geometry.triple_vertices: 6 - 71 planes a cell, ~0.9 ms a module in
@@ -35,7 +43,7 @@ import numpy as np
 from assetgen.collision.cell_meshes import aligned_cell_meshes, largest_residuals
 from assetgen.core.mesh import Mesh
 from assetgen.core.portable import norm
-from assetgen.geometry.polytope import offset_planes, transform_planes
+from assetgen.geometry.polytope import offset_planes, polytope_vertices, transform_planes
 from assetgen.geometry.solids import ModuleGeometry
 from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
@@ -95,11 +103,20 @@ def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 def local_footprint(geom: ModuleGeometry) -> tuple[np.ndarray, np.ndarray]:
-    """xy bounds (lo, hi) of the plate region around the hole, each (2,) in m."""
+    """xy bounds (lo, hi) of the plate region around the hole, each (2,) in m: the hole's
+    section grown by the wall, and the sleeve's outline through the plate (the wall pieces
+    rise through it; a tilted hole's outline leans out)."""
     p = geom.params
     lo, hi = geom.hole_section
+    lo, hi = lo - p.sleeve_wall, hi + p.sleeve_wall
+    k = len(geom.hole_planes)
+    slab = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, -1.0, p.plate_thickness]])
+    outline = polytope_vertices(np.vstack([geom.sleeve_planes[: k + 4], slab]))
+    if len(outline):
+        lo = np.minimum(lo, outline[:, :2].min(axis=0))
+        hi = np.maximum(hi, outline[:, :2].max(axis=0))
     half = p.plate_size / 2
-    return np.maximum(lo - p.sleeve_wall, -half), np.minimum(hi + p.sleeve_wall, half)
+    return np.maximum(lo, -half), np.minimum(hi, half)
 
 
 def exact_decomposition(
@@ -143,12 +160,14 @@ def exact_decomposition(
         np.array([*np.maximum(lo - overlap, -half), -t]),
         np.array([*np.minimum(hi + overlap, half), 0.0]),
     )
-    # Sleeve rows: mitred hole planes, 4 box planes, a cap. Below the plate the sleeve is
-    # alone (inside it the local box covers everything), so cap at the underside, raised
-    # `overlap` into the plate; not above mid-plate, where the sleeve itself ends.
+    # Walls: each face of the hole belongs to one piece alone. Wall piece i is the sleeve's
+    # cell i (mitred hole planes, the sleeve's 4 box planes) raised through the plate to
+    # its top: inside the sleeve's outline the plate is material too. (Sleeve and plate
+    # pieces that each reached the same face left a peg's face lying flat on two coplanar
+    # faces, where MuJoCo's multiccd returns contacts tens of mm deep.)
     mitred = geom.sleeve_planes[:k]
-    rise = min(overlap, t / 2)
-    box_and_cap = np.vstack([geom.sleeve_planes[k : k + 4], [[0.0, 0.0, 1.0, -t + rise]]])
+    box = geom.sleeve_planes[k : k + 4]
+    wall_cap = np.vstack([box, [[0.0, 0.0, 1.0, 0.0]]])
     cells = _cell_planes(hp, nbrs, overlap)
     # Without overlap, inside cell i every s_j <= s_i, so of the mitred planes only i's own,
     # its neighbours' and the floor's (thickness may differ from the wall's) can bind; a
@@ -158,28 +177,47 @@ def exact_decomposition(
     has[:, k - 1] = True
     has[np.repeat(np.arange(k), [len(n) for n in nbrs]), np.concatenate(nbrs)] = True
     first = len(systems)
+    systems += [np.vstack([mitred[has[i]], wall_cap, cells[i]]) for i in range(k)]
+    # The plate of cell i around its wall piece: beyond the mitred plane, then beyond each
+    # box plane that cuts the cell's part of the sleeve's outline (the box trims acute
+    # corners), each inside the outer planes before it. Each reaches `overlap` into the
+    # wall piece and into the plate pieces before it; none comes near a face of the hole.
+    # Which of them hold plate is decided without overlap, so that the pieces grow from
+    # the same cells whatever the overlap (a box plane may cut only where another one
+    # already did: no cell of its own).
+    bare_box = _box_planes(np.array([*lo, -t]), np.array([*hi, 0.0]))
+    bare = _cell_planes(hp, nbrs, 0.0)
+
+    def plate_cells(i: int, shift: float, region: np.ndarray, cell: np.ndarray) -> list:
+        """Cell i's plate pieces within `region`, their outline planes moved `shift`."""
+        move = np.array([0.0, 0.0, 0.0, shift])
+        outer = np.vstack([mitred[i], box])
+        # beyond outer plane j (from `shift` inside it), inside those before it (to `shift`)
+        return [np.vstack([region, cell, move - outer[j], outer[:j] + move]) for j in range(5)]
+
     for i in range(k):
-        systems.append(np.vstack([local_box, cells[i]]))
-        systems.append(np.vstack([mitred[has[i]], box_and_cap, cells[i]]))
+        kept = aligned_cell_meshes(plate_cells(i, 0.0, bare_box, bare[i]))
+        grown = plate_cells(i, overlap, local_box, cells[i])
+        systems += [s for s, m in zip(grown, kept, strict=True) if m is not None]
     meshes = aligned_cell_meshes(systems)
 
-    # Every sleeve piece inside every mitred plane: a piece whose vertices all satisfy one
+    # Every wall piece inside every mitred plane: a piece whose vertices all satisfy one
     # lies inside it (convex); one that crosses planes it lacks gets them and is made again
     # (it only shrinks, so the planes it satisfied stay satisfied).
-    todo = [i for i in range(k) if meshes[first + 2 * i + 1] is not None]
+    todo = [i for i in range(k) if meshes[first + i] is not None]
     while todo:
-        reach = largest_residuals([meshes[first + 2 * i + 1] for i in todo], mitred)
+        reach = largest_residuals([meshes[first + i] for i in todo], mitred)
         more = (reach > 0.0) & ~has[todo]
         redo = [i for i, row in zip(todo, more.any(axis=1), strict=True) if row]
         if not redo:
             break
         has[todo] |= more
         for i in redo:
-            systems[first + 2 * i + 1] = np.vstack([mitred[has[i]], box_and_cap, cells[i]])
-        again = aligned_cell_meshes([systems[first + 2 * i + 1] for i in redo])
+            systems[first + i] = np.vstack([mitred[has[i]], wall_cap, cells[i]])
+        again = aligned_cell_meshes([systems[first + i] for i in redo])
         for i, m in zip(redo, again, strict=True):
-            meshes[first + 2 * i + 1] = m
-        todo = [i for i in redo if meshes[first + 2 * i + 1] is not None]
+            meshes[first + i] = m
+        todo = [i for i in redo if meshes[first + i] is not None]
     kept = [s for s, m in enumerate(meshes) if m is not None]
     return [meshes[s] for s in kept], [systems[s] for s in kept]  # type: ignore[misc]
 

@@ -122,7 +122,9 @@ def check_union(
     module, seams overlapping; raise CheckError if not.
 
     - Inside the module: each piece's vertices (so the piece, convex) lie in the plate or in
-      the sleeve, and beyond one hole plane, or, a far-plate box, to one side of the hole's
+      the sleeve's outline up to the mounting surface (the plate fills the outline above the
+      sleeve; the sleeve's footprint is checked to lie within the plate's), and beyond one
+      hole plane, or, a far-plate box, to one side of the hole's
       section through the plate.
     - Each piece is the whole polytope of its half-spaces: every vertex satisfies them all
       and every triangle lies on one of their planes (a closed convex surface inside a
@@ -139,7 +141,8 @@ def check_union(
     rows = np.vstack(
         [
             np.column_stack([np.vstack([eye, -eye]), [half, half, 0.0, half, half, t]]),  # plate
-            geom.sleeve_planes,
+            # the sleeve's outline up to the mounting surface (a wall piece's room)
+            np.vstack([geom.sleeve_planes[:-1], [[0.0, 0.0, 1.0, 0.0]]]),
             -geom.hole_planes,  # beyond hole plane i
             np.column_stack([-eye[:2], -hi]),  # the hole's section's +x, +y side
             np.column_stack([eye[:2], lo]),  # its -x, -y side
