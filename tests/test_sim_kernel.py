@@ -147,11 +147,16 @@ def test_observe_of_chosen_envs_equals_the_reference() -> None:
     np.testing.assert_allclose(got, T.observe(pos, quat, frames[idx]), rtol=0, atol=2e-7)
 
 
-def test_command_clips_scales_and_adds_noise() -> None:
+def command_case() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(actions (50, 6) past the bounds too, float32 draws e, scale, noise std) for command."""
     rng = np.random.default_rng(4)
     actions = rng.uniform(-3, 3, (50, 6))
     e = rng.standard_normal((50, 6), dtype=np.float32)
-    scale, std = np.array([0.25] * 3 + [1.5] * 3), np.array([5e-4] * 3 + [0.017] * 3)
+    return actions, e, np.array([0.25] * 3 + [1.5] * 3), np.array([5e-4] * 3 + [0.017] * 3)
+
+
+def test_command_clips_scales_and_adds_noise() -> None:
+    actions, e, scale, std = command_case()
     for noisy in (False, True):
         want = np.clip(actions, -1, 1) * scale + (e * std if noisy else 0.0)
         out = np.empty((50, 6))

@@ -11,7 +11,7 @@ import torch
 from sim import step_kernel as K
 from sim import task_torch as TT
 from sim.config import TaskConfig
-from tests.test_sim_kernel import N, _batch, _kernel_frames, _score
+from tests.test_sim_kernel import N, _batch, _kernel_frames, _score, command_case
 
 
 def _t(a: np.ndarray) -> torch.Tensor:
@@ -78,10 +78,7 @@ def test_observe_of_chosen_envs_equals_the_kernel() -> None:
 
 
 def test_command_equals_the_kernel() -> None:
-    rng = np.random.default_rng(4)
-    actions = rng.uniform(-3, 3, (50, 6))
-    e = rng.standard_normal((50, 6), dtype=np.float32)
-    scale, std = np.array([0.25] * 3 + [1.5] * 3), np.array([5e-4] * 3 + [0.017] * 3)
+    actions, e, scale, std = command_case()
     for noisy in (False, True):
         want = np.empty((50, 6))
         K.command(actions, e, noisy, scale, std, want)

@@ -176,8 +176,13 @@ def exact_decomposition(
     has[np.arange(k), np.arange(k)] = True
     has[:, k - 1] = True
     has[np.repeat(np.arange(k), [len(n) for n in nbrs]), np.concatenate(nbrs)] = True
+
+    def wall_system(i: int) -> np.ndarray:
+        """Wall piece i's half-spaces, with the mitred planes `has[i]` names."""
+        return np.vstack([mitred[has[i]], wall_cap, cells[i]])
+
     first = len(systems)
-    systems += [np.vstack([mitred[has[i]], wall_cap, cells[i]]) for i in range(k)]
+    systems += [wall_system(i) for i in range(k)]
     # The plate of cell i around its wall piece: beyond the mitred plane, then beyond each
     # box plane that cuts the cell's part of the sleeve's outline (the box trims acute
     # corners), each inside the outer planes before it. Each reaches `overlap` into the
@@ -193,7 +198,9 @@ def exact_decomposition(
         move = np.array([0.0, 0.0, 0.0, shift])
         outer = np.vstack([mitred[i], box])
         # beyond outer plane j (from `shift` inside it), inside those before it (to `shift`)
-        return [np.vstack([region, cell, move - outer[j], outer[:j] + move]) for j in range(5)]
+        return [
+            np.vstack([region, cell, move - outer[j], outer[:j] + move]) for j in range(len(outer))
+        ]
 
     for i in range(k):
         kept = aligned_cell_meshes(plate_cells(i, 0.0, bare_box, bare[i]))
@@ -213,7 +220,7 @@ def exact_decomposition(
             break
         has[todo] |= more
         for i in redo:
-            systems[first + i] = np.vstack([mitred[has[i]], wall_cap, cells[i]])
+            systems[first + i] = wall_system(i)
         again = aligned_cell_meshes([systems[first + i] for i in redo])
         for i, m in zip(redo, again, strict=True):
             meshes[first + i] = m
