@@ -177,12 +177,21 @@ class PPO:
         self.step = 0
         self.updates = 0  # rollouts learned from: env steps = updates * horizon * num_envs
 
-    def _t(self, a: np.ndarray) -> torch.Tensor:
+    def _t(self, a: np.ndarray | torch.Tensor) -> torch.Tensor:
+        if isinstance(a, torch.Tensor):  # an env on the device (rl/host_view.py)
+            return a.to(self.device, torch.float32)
         return torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device)
+
+    @staticmethod
+    def _out(a: torch.Tensor, like: np.ndarray | torch.Tensor) -> np.ndarray | torch.Tensor:
+        """Actions as the observations came: a tensor stays on the device, else numpy."""
+        a = a.clamp(-1.0, 1.0)
+        return a if isinstance(like, torch.Tensor) else a.cpu().numpy()
 
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
-        """Sample actions for obs (N, obs_dim) and store them; returns (N, act_dim) in [-1, 1]."""
+        """Sample actions for obs (N, obs_dim) and store them; returns (N, act_dim) in [-1, 1]
+        (a tensor on the agent's device when obs is a tensor)."""
         o = self._t(obs)
         mean, std = self.net.dist(o)
         a = mean + std * torch.randn_like(mean)
@@ -190,14 +199,14 @@ class PPO:
         self.obs[k], self.actions[k] = o, a
         self.logp[k] = self.net.log_prob(mean, std, a)
         self.values[k] = self.net.value(o)
-        return a.clamp(-1.0, 1.0).cpu().numpy()
+        return self._out(a, obs)
 
     @torch.no_grad()
     def policy(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """Actions (N, act_dim) in [-1, 1] for obs (N, obs_dim), without storing anything."""
         mean, std = self.net.dist(self._t(obs))
         a = mean if deterministic else mean + std * torch.randn_like(mean)
-        return a.clamp(-1.0, 1.0).cpu().numpy()
+        return self._out(a, obs)
 
     @torch.no_grad()
     def process_step(

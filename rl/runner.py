@@ -46,6 +46,7 @@ from rich.console import Console
 from rl import checkpoint as ckpt
 from rl.dreamer.agent import Dreamer
 from rl.dreamer.config import DreamerConfig
+from rl.host_view import HostView, host
 from rl.nets import NonFiniteLossError
 from rl.ppo import PPO, PPOConfig
 from rl.presets import AlgoConfig, Setup, get_setup
@@ -157,6 +158,17 @@ def _jsonable(x: Any) -> Any:
     return json.loads(json.dumps(x))
 
 
+TENSOR_ALGOS = frozenset({"ppo"})
+"""Agents that step an env on torch tensors (`tensor_io`) directly; others see it through
+rl/host_view.py's numpy view."""
+
+
+def _all_finite(actions: Any) -> bool:
+    if isinstance(actions, torch.Tensor):
+        return bool(torch.isfinite(actions).all())
+    return bool(np.isfinite(actions).all())
+
+
 # ----------------------------------------------------------------------------- statistics
 
 
@@ -167,18 +179,16 @@ class EpisodeStats:
         self.window: deque[tuple[float, int, bool, float]] = deque(maxlen=size)
         self.total = 0
 
-    def add(self, done: np.ndarray, info: dict[str, Any]) -> None:
-        """Record the episodes that ended where done (N,) is True."""
-        for i in np.flatnonzero(done):
-            self.window.append(
-                (
-                    float(info["episode_return"][i]),
-                    int(info["episode_length"][i]),
-                    bool(info["success"][i]),
-                    float(info["time_to_success"][i]),
-                )
-            )
-            self.total += 1
+    def add(self, done: Any, info: dict[str, Any]) -> None:
+        """Record the episodes that ended where done (N,) is True (arrays or tensors)."""
+        idx = np.flatnonzero(host(done))
+        if not len(idx):
+            return
+        keys = ("episode_return", "episode_length", "success", "time_to_success")
+        r, n, s, t = (host(info[k])[idx] for k in keys)
+        for row in zip(r.tolist(), n.tolist(), s.tolist(), t.tolist(), strict=True):
+            self.window.append((float(row[0]), int(row[1]), bool(row[2]), float(row[3])))
+        self.total += len(idx)
 
     def summary(self) -> dict[str, float]:
         """Means over the window (NaN when empty)."""
@@ -480,6 +490,8 @@ def train(
     setup = get_setup(preset, algo) if isinstance(preset, str) else preset
     config = replace(setup.config, **(overrides or {}))
     base_dim = env.obs_dim
+    if getattr(env, "tensor_io", False) and not (stack == 1 and algo in TENSOR_ALGOS):
+        env = HostView(env)  # the agent or the stack takes numpy arrays
     if stack > 1:
         env = StackObs(env, stack)
     elif stack < 1:
@@ -579,14 +591,14 @@ def train(
             t_iter = time.perf_counter()
             for _ in range(spi):
                 actions = agent.act(obs)
-                if not np.isfinite(actions).all():
+                if not _all_finite(actions):
                     raise NonFiniteLossError(
                         "the policy produced NaN/inf actions: its weights or the observations "
                         "are not finite"
                     )
                 next_obs, reward, terminated, truncated, info = env.step(actions)
                 agent.process_step(next_obs, reward, terminated, truncated, info)
-                stats.add(np.asarray(terminated) | np.asarray(truncated), info)
+                stats.add(terminated | truncated, info)
                 obs = next_obs
             losses = agent.update(obs)
             if not _finite(agent):

@@ -188,12 +188,14 @@ def bench_warp(
     config: TaskConfig = EVAL_CONFIG,
     rounds: int = 10,
     seed: int = 0,
+    device_env: bool = True,
 ) -> dict:
     """bench_sim on MuJoCo Warp: env steps/s at `envs` envs (one world each; with fewer envs
     than modules the envs take the modules in turns, as in training), with random actions and
     with the direct scripted expert, next to the simulator's own control steps without the
     env layer (raw: the commands and states up, the substeps on the device, the states
-    back). The same keys as bench_sim's where they apply, and the device memory in use."""
+    back). The same keys as bench_sim's where they apply, and the device memory in use;
+    with `device_env`, bench_warp_device's figures too (the env on the device)."""
     from sim.expert import direct_expert_action
 
     t0 = time.perf_counter()
@@ -238,7 +240,72 @@ def bench_warp(
     res["expert_env_steps_per_s"] = envs * k / (time.perf_counter() - t)
     res["device_memory_mb"] = sim.device_memory_mb()
     env.close()
+    if device_env:
+        res |= bench_warp_device(dataset, envs, k, config=config, seed=seed)
     return res
+
+
+def bench_warp_device(
+    dataset: str | Path,
+    envs: int,
+    steps: int,
+    *,
+    config: TaskConfig = EVAL_CONFIG,
+    seed: int = 0,
+    hidden: tuple[int, ...] = (512, 512),
+) -> dict:
+    """The env on the device (sim/warp_env.py) at `envs` envs over `steps` control steps:
+    env steps/s with random actions drawn on the device, and with a policy network's
+    forward pass on the device in the loop (an MLP of `hidden` ELU layers, the `paper`
+    preset's, observation to action as a PPO rollout takes them: no learner updates)."""
+    import torch
+
+    from sim.warp_env import WarpTorchVecEnv
+
+    t0 = time.perf_counter()
+    env = WarpTorchVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True)
+    build_s = time.perf_counter() - t0
+    dev = env.device
+    gen = torch.Generator(device=dev).manual_seed(seed)
+
+    def actions() -> torch.Tensor:
+        return torch.rand((envs, 6), generator=gen, device=dev) * 2 - 1
+
+    def sync() -> None:
+        if dev.type == "cuda":
+            torch.cuda.synchronize(dev)
+
+    obs = env.reset(seed=seed)
+    for _ in range(min(10, steps)):  # warm-up: the graph's capture, torch's kernels
+        obs = env.step(actions())[0]
+    sync()
+    t = time.perf_counter()
+    for _ in range(steps):
+        env.step(actions())
+    sync()
+    random_s = time.perf_counter() - t
+    layers: list[torch.nn.Module] = []
+    width = env.obs_dim
+    for h in hidden:
+        layers += [torch.nn.Linear(width, h), torch.nn.ELU()]
+        width = h
+    net = torch.nn.Sequential(*layers, torch.nn.Linear(width, env.act_dim)).to(dev)
+    with torch.no_grad():
+        sync()
+        t = time.perf_counter()
+        for _ in range(steps):
+            mean = net(obs)
+            obs = env.step((mean + 0.3 * torch.randn_like(mean)).clamp(-1, 1))[0]
+        sync()
+        policy_s = time.perf_counter() - t
+    out = {
+        "device_env_build_s": build_s,
+        "device_env_steps_per_s": envs * steps / random_s,
+        "device_policy_env_steps_per_s": envs * steps / policy_s,
+        "device_env_memory_mb": env.sim.device_memory_mb(),
+    }
+    env.close()
+    return out
 
 
 def bench_main(args: argparse.Namespace) -> int:
@@ -280,6 +347,8 @@ def bench_main(args: argparse.Namespace) -> int:
             for label, key in (
                 ("env steps/s (direct expert)", "expert_env_steps_per_s"),
                 ("device memory, MB", "device_memory_mb"),
+                ("env on the device: env steps/s (random)", "device_env_steps_per_s"),
+                ("env on the device: env steps/s (policy)", "device_policy_env_steps_per_s"),
             )
             if key in res
         ],

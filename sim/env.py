@@ -87,6 +87,7 @@ class PegInHoleVecEnv:
         rotate_modules: bool = False,
         engine: str = "mujoco",
         physx: PhysxConfig | None = None,
+        warp_device: str | None = None,
     ) -> None:
         if engine not in ENGINES:
             raise ValueError(f"engine = {engine!r}; expected one of {ENGINES}")
@@ -133,7 +134,7 @@ class PegInHoleVecEnv:
         elif engine == "mujoco-warp":
             from sim.warp_batch import WarpBatchSim
 
-            self.sim = WarpBatchSim(assets, self.cfg, spare)
+            self.sim = WarpBatchSim(assets, self.cfg, spare, device=warp_device)
         else:
             self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
         self.control_dt = self.cfg.control_dt
@@ -505,11 +506,16 @@ def make_train_env(
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
     simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
-    serves one env per module, so num_envs must cover the dataset's modules)."""
+    serves one env per module, so num_envs must cover the dataset's modules; mujoco-warp
+    gives the env on the device, sim/warp_env.py, with torch tensors in and out)."""
     root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
+    if engine == "mujoco-warp":  # the task's arithmetic on the device too (sim/warp_env.py)
+        from sim.warp_env import WarpTorchVecEnv
+
+        return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
     )

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from sim import step_kernel as K
+from sim.config import TaskConfig
 
 
 @dataclass(frozen=True)
@@ -148,6 +149,74 @@ def _failed(
     return (low < -depth) & outside.any(1)
 
 
+def seat_distance(
+    pos: torch.Tensor,
+    quat: torch.Tensor,
+    bottom_pos: torch.Tensor,
+    bottom_quat_conj: torch.Tensor,
+    params: K.StepParams,
+) -> torch.Tensor:
+    """(n,) the weighted distance of poses pos (n, 3), quat (n, 4) to the seat
+    (task.seat_distance)."""
+    d = pos - bottom_pos
+    aw, ax, ay, az = bottom_quat_conj.unbind(1)
+    w, x, y, z = quat.unbind(1)
+    vx = aw * x + w * ax + (ay * z - az * y)
+    vy = aw * y + w * ay + (az * x - ax * z)
+    vz = aw * z + w * az + (ax * y - ay * x)
+    return params.dist_pos_weight * (d * d).sum(1).sqrt() + params.dist_rot_weight * torch.sqrt(
+        8.0 * (vx * vx + vy * vy + vz * vz)
+    )
+
+
+def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """(n, 4) Hamilton products a b of quaternions w x y z."""
+    aw, ax, ay, az = a.unbind(-1)
+    bw, bx, by, bz = b.unbind(-1)
+    return torch.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        dim=-1,
+    )
+
+
+def sample_spawn(
+    gen: torch.Generator,
+    entrance_pos: torch.Tensor,
+    entrance_quat: torch.Tensor,
+    vertices: torch.Tensor,
+    scale: float,
+    cfg: TaskConfig,
+    min_clearance: float = 0.001,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """task.sample_spawn on tensors, its draws from `gen`: spawn positions (n, 3) and unit
+    quaternions (n, 4) about entrances entrance_pos (n, 3), entrance_quat (n, 4), raised
+    where a peg vertex (n, V, 3) would lie less than `min_clearance` above the surface."""
+    n, dev = len(entrance_pos), entrance_pos.device
+    u = torch.rand((n, 4), generator=gen, device=dev, dtype=torch.float64)
+    offset = torch.zeros((n, 4), device=dev, dtype=torch.float64)
+    offset[:, 1:3] = (2.0 * u[:, :2] - 1.0) * cfg.spawn_xy * scale
+    lo, hi = cfg.spawn_z
+    offset[:, 3] = (lo + (hi - lo) * u[:, 2]) * scale
+    angle = u[:, 3] * cfg.spawn_max_angle * scale
+    axis = torch.randn((n, 3), generator=gen, device=dev, dtype=torch.float64)
+    axis = axis / axis.norm(dim=1, keepdim=True)
+    turn = torch.cat([torch.cos(0.5 * angle)[:, None], axis * torch.sin(0.5 * angle)[:, None]], 1)
+    quat = quat_mul(entrance_quat, turn)
+    conj = entrance_quat * torch.tensor([1.0, -1.0, -1.0, -1.0], dtype=torch.float64, device=dev)
+    pos = entrance_pos + quat_mul(quat_mul(entrance_quat, offset), conj)[:, 1:]
+    w, x, y, z = quat.unbind(1)
+    row2 = torch.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], 1)
+    low = torch.einsum("nvi,ni->nv", vertices, row2).amin(1) + pos[:, 2]
+    pos = pos.clone()
+    pos[:, 2] += (min_clearance - low).clamp(min=0.0)
+    return pos, quat
+
+
 @dataclass
 class TorchEpisode:
     """K.Episode as tensors: what score reads and updates in place."""
@@ -181,14 +250,7 @@ def score(
     quat = torch.where(bad_physics, ident, quat.to(torch.float64))
     d = pos - frames.bottom_pos
     d2 = (d * d).sum(1)
-    aw, ax, ay, az = frames.bottom_quat_conj.unbind(1)
-    w, x, y, z = quat.unbind(1)
-    vx = aw * x + w * ax + (ay * z - az * y)
-    vy = aw * y + w * ay + (az * x - ax * z)
-    vz = aw * z + w * az + (ax * y - ay * x)
-    dist = params.dist_pos_weight * d2.sqrt() + params.dist_rot_weight * torch.sqrt(
-        8.0 * (vx * vx + vy * vy + vz * vz)
-    )
+    dist = seat_distance(pos, quat, frames.bottom_pos, frames.bottom_quat_conj, params)
     c = 1.0 - torch.sqrt(dist / episode.d0)
     ok = (d2 < params.success_radius**2) & ~unstable
     low = pos[:, 2] - frames.reach < -params.failure_depth

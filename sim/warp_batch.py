@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import warnings
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -355,9 +356,11 @@ class WarpBatchSim(PegStateViews):
         self.data.qvel.assign(self.state[:, 8:14].astype(np.float32))
         self.data.time.zero_()  # float32 time: each control step counts from 0
 
-    def device_substeps(self) -> None:
+    def device_substeps(self, restore: Callable[[], None] | None = None) -> None:
         """One control step's substeps on the device, from and to the device's state (a
-        captured CUDA graph on a GPU: one launch; the first call compiles and captures)."""
+        captured CUDA graph on a GPU: one launch; the first call compiles and captures).
+        restore: puts back the state the first call's compiling pass stepped (default: the
+        host's state, uploaded)."""
         wp = self._wp
         with wp.ScopedDevice(self.device):
             if not self.device.startswith("cuda"):
@@ -365,7 +368,7 @@ class WarpBatchSim(PegStateViews):
                 return
             if self._graph is None:
                 self._substeps()  # compiles every kernel; capture needs them loaded
-                self._upload_state()
+                (restore or self._upload_state)()
                 with wp.ScopedCapture() as capture:
                     self._substeps()
                 self._graph = capture.graph

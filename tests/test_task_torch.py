@@ -97,3 +97,35 @@ def test_check_unstable_equals_the_kernel() -> None:
     K.check_unstable(state, checks, want)
     assert 10 < want.sum() < 190
     np.testing.assert_array_equal(TT.check_unstable(_t(state), checks).numpy(), want)
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.3])
+def test_spawn_draws_the_host_spawns_distribution(scale: float) -> None:
+    """The torch spawn (its own generator) keeps task.sample_spawn's ranges and matches its
+    distribution: offsets within +-scale spawn_xy and scale spawn_z of the entrance, turns
+    up to scale spawn_max_angle, the peg's lowest point at least 1 mm above the surface,
+    and the same means and spreads as the host's draws within sampling error."""
+    from assetgen.core.rotations import quat_conj, quat_mul
+    from sim import task as T
+
+    n, cfg = 20000, TaskConfig()
+    rng = np.random.default_rng(0)
+    pos0 = np.tile([0.01, -0.02, 0.0], (n, 1))
+    quat0 = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    verts = np.tile(rng.uniform(-0.02, 0.02, (1, 30, 3)), (n, 1, 1))
+    host = T.sample_spawn(rng, pos0, quat0, verts, scale, cfg)
+    gen = torch.Generator().manual_seed(0)
+    dev = TT.sample_spawn(gen, _t(pos0), _t(quat0), _t(verts), scale, cfg)
+    dev = tuple(x.numpy() for x in dev)
+    for pos, quat in (host, dev):
+        off = pos - pos0
+        assert np.abs(off[:, :2]).max() <= cfg.spawn_xy * scale + 1e-12
+        np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0, atol=1e-12)
+        angle = 2 * np.arcsin(np.clip(np.linalg.norm(quat_mul(quat_conj(quat0), quat)[:, 1:],
+                                                     axis=1), 0, 1))  # fmt: skip
+        assert angle.max() <= cfg.spawn_max_angle * scale + 1e-9
+        assert T.heights(pos, quat, verts).min() >= 0.001 - 1e-12
+    for h, d in zip(host, dev, strict=True):
+        se = h.std(0) / np.sqrt(n)
+        assert (np.abs(h.mean(0) - d.mean(0)) < 5 * se + 1e-12).all()
+        np.testing.assert_allclose(d.std(0), h.std(0), rtol=0.05, atol=1e-9)

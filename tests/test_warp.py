@@ -183,7 +183,8 @@ def test_a_missing_warp_extra_is_named_in_one_line() -> None:
 
 
 def test_bench_sim_runs_on_warp(capsys) -> None:
-    """`assetgen bench sim --sim mujoco-warp`: the env's rate, the raw rate, the expert's."""
+    """`assetgen bench sim --sim mujoco-warp`: the env's rate, the raw rate, the expert's, and
+    the env on the device with random actions and with a policy in the loop."""
     import json
 
     from cli import main
@@ -192,7 +193,13 @@ def test_bench_sim_runs_on_warp(capsys) -> None:
     assert main([*args, "--envs", "2", "--steps", "2", "--json"]) == 0
     res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert res["engine"] == "mujoco-warp" and res["envs"] == 2 and res["modules"] == 3
-    for key in ("env_steps_per_s", "rollout_steps_per_s", "expert_env_steps_per_s"):
+    for key in (
+        "env_steps_per_s",
+        "rollout_steps_per_s",
+        "expert_env_steps_per_s",
+        "device_env_steps_per_s",
+        "device_policy_env_steps_per_s",
+    ):
         assert res[key] > 0, key
 
 
