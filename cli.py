@@ -520,6 +520,10 @@ def build_parser() -> argparse.ArgumentParser:
 def _train_env(*args, **kwargs):
     # the simulator (MuJoCo, with its GL bindings: ~0.3 s) is imported when a command uses
     # it, not by every command's parser: `assetgen sample` is timed whole
+    if kwargs.get("engine") == "mujoco-warp":  # the task on the device too (sim/warp_env.py)
+        from sim.warp_env import make_device_train_env
+
+        return make_device_train_env(*args, **kwargs)
     from sim import make_train_env
 
     return make_train_env(*args, **kwargs)

@@ -492,6 +492,19 @@ class PegInHoleVecEnv:
         self.sim.close()
 
 
+def train_config(
+    dataset: str, curriculum_steps: int | None = None, keep_physics: bool = False
+) -> tuple[Path, TaskConfig]:
+    """The dataset's folder and the training task's config: the paper's task with its
+    curriculum over `curriculum_steps` env steps (default: the paper's 50 M), the physics of
+    the dataset's files checked (see make_train_env)."""
+    root = dataset_root(dataset)
+    config = TaskConfig(physics=check_physics(root, keep_physics))
+    if curriculum_steps is not None:
+        config = replace(config, curriculum_steps=int(curriculum_steps))
+    return root, config
+
+
 def make_train_env(
     dataset: str,
     num_envs: int,
@@ -506,16 +519,9 @@ def make_train_env(
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
     simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
-    serves one env per module, so num_envs must cover the dataset's modules; mujoco-warp
-    gives the env on the device, sim/warp_env.py, with torch tensors in and out)."""
-    root = dataset_root(dataset)
-    config = TaskConfig(physics=check_physics(root, keep_physics))
-    if curriculum_steps is not None:
-        config = replace(config, curriculum_steps=int(curriculum_steps))
-    if engine == "mujoco-warp":  # the task's arithmetic on the device too (sim/warp_env.py)
-        from sim.warp_env import WarpTorchVecEnv
-
-        return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
+    serves one env per module, so num_envs must cover the dataset's modules; for training
+    on mujoco-warp the command line takes sim/warp_env.py's env, the task on the device)."""
+    root, config = train_config(dataset, curriculum_steps, keep_physics)
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
     )

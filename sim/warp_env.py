@@ -33,7 +33,7 @@ from sim import task as T
 from sim import task_torch as TT
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
-from sim.env import PegInHoleVecEnv
+from sim.env import PegInHoleVecEnv, train_config
 
 
 class WarpTorchVecEnv:
@@ -397,3 +397,18 @@ class WarpTorchVecEnv:
 
     def close(self) -> None:
         self.sim.close()
+
+
+def make_device_train_env(
+    dataset: str,
+    num_envs: int,
+    seed: int,
+    curriculum_steps: int | None = None,
+    keep_physics: bool = False,
+    engine: str = "mujoco-warp",
+) -> WarpTorchVecEnv:
+    """sim.env.make_train_env's env on the device: the same task, modules in turns."""
+    if engine != "mujoco-warp":
+        raise ValueError(f"engine = {engine!r}: the env on the device runs on mujoco-warp")
+    root, config = train_config(dataset, curriculum_steps, keep_physics)
+    return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
