@@ -291,7 +291,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
         args.dataset = args.target
         try:
             if args.sim == "mujoco-warp":
-                return _err("bench contacts --sim mujoco-warp: not built yet; use mujoco or physx")
+                from sim.contact_stress_warp import stress_warp
+
+                return contacts_main(args, warp_stress=stress_warp)
             if args.sim == "physx":
                 from sim.contact_stress_physx import stress_physx
 

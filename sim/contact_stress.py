@@ -702,12 +702,17 @@ def format_summary(s: dict) -> list[tuple[str, str]]:
     return rows
 
 
-def main(args, physx_stress: Callable | None = None) -> int:
+ENGINE_LABELS = {"physx": "PhysX", "mujoco-warp": "MuJoCo Warp"}
+"""How the summary names the engines other than MuJoCo on the CPU."""
+
+
+def main(args, physx_stress: Callable | None = None, warp_stress: Callable | None = None) -> int:
     """`assetgen bench contacts DATASET`: args.dataset, args.limit, args.physics_version (an
     earlier version's settings; default: the project's for the dataset's clearance), args.set
     (PhysicsConfig overrides on top), args.source (sim or mjcf), args.cases, args.threads,
-    args.json (a file), args.sim (mujoco, or physx with `physx_stress`: the PhysX runner,
-    passed in so that this module does not import its own user)."""
+    args.json (a file), args.sim (mujoco; physx with `physx_stress`, mujoco-warp with
+    `warp_stress`: the other engines' runners, passed in so that this module does not import
+    its own users)."""
     import sys
     from dataclasses import replace
 
@@ -761,8 +766,14 @@ def main(args, physx_stress: Callable | None = None) -> int:
     if engine == "physx" and (mjcf is not None or version is not None):
         raise ValueError("--sim physx takes its settings from PhysxConfig (--set FIELD=VALUE): "
                          "drop --source and --physics-version")  # fmt: skip
+    if engine == "mujoco-warp" and mjcf is not None:
+        raise ValueError("--sim mujoco-warp runs the simulator's models: drop --source mjcf")
     t0 = time.perf_counter()
-    if engine == "physx":
+    if engine == "mujoco-warp":
+        if warp_stress is None:
+            raise ValueError("--sim mujoco-warp: pass sim.contact_stress_warp.stress_warp")
+        records = warp_stress(assets, cfg, TaskConfig(physics=physics), progress=progress)
+    elif engine == "physx":
         from sim.physx_config import PhysxConfig
 
         if physx_stress is None:
@@ -780,7 +791,7 @@ def main(args, physx_stress: Callable | None = None) -> int:
     for s in summaries:
         print(
             f"{root}: {s['modules']} modules, clearance {s['clearance'] * 1e3:g} mm, "
-            f"{'PhysX' if engine == 'physx' else 'exported files' if mjcf else 'simulator models'}"
+            f"{ENGINE_LABELS.get(engine, 'exported files' if mjcf else 'simulator models')}"
             f", {seconds:.0f} s"
         )
         rows = format_summary(s)

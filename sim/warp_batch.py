@@ -140,7 +140,9 @@ class WarpBatchSim(PegStateViews):
 
     env_assets: each env's module; spare_assets: further modules an env may be put on with
     `set_module`. device: a Warp device ("cuda:0", "cpu"); None: the GPU if there is one.
-    nconmax, njmax: contacts and constraint rows allocated per world.
+    nconmax, njmax: contacts and constraint rows allocated per world. per_world: further
+    batched model fields every world gets its own copy of, to change them world by world
+    (the peg's contact fields always are).
     """
 
     def __init__(
@@ -151,6 +153,7 @@ class WarpBatchSim(PegStateViews):
         device: str | None = None,
         nconmax: int = 64,
         njmax: int = 256,
+        per_world: tuple[str, ...] = (),
     ) -> None:
         wp, mjw = _warp()
         if task.physics is None:
@@ -214,7 +217,8 @@ class WarpBatchSim(PegStateViews):
                 not np.array_equal(getattr(first, name), getattr(m, name)) for m in own.values()
             )
         ]
-        self._fields += [f for f in ("geom_friction", "geom_solref") if f not in self._fields]
+        always = ("geom_friction", "geom_solref", *per_world)
+        self._fields += [f for f in always if f not in self._fields]
         self._per_module = {
             mid: {
                 f: (self._dataid[mid] if f == "geom_dataid" else np.array(getattr(m, f)))
