@@ -22,7 +22,7 @@ import numpy as np
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
 from sim.contact_stress import Run, StressConfig, _figures, _hold, module_runs
-from sim.warp_batch import WarpBatchSim, _warp
+from sim.warp_batch import NCONMAX, NJMAX, WarpBatchSim, _warp
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
 
@@ -82,8 +82,8 @@ def stress_warp(
     task: TaskConfig,
     progress: Callable[[int, int], None] | None = None,
     device: str | None = None,
-    nconmax: int = 64,
-    njmax: int = 256,
+    nconmax: int = NCONMAX,
+    njmax: int = NJMAX,
 ) -> list[dict]:
     """Every run of every module on MuJoCo Warp, one world a run; one record (its figures)
     a run, as sim.contact_stress.stress gives them. device: a Warp device (None: the GPU if

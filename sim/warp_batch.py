@@ -47,6 +47,14 @@ _PARK = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) * 1e
 _PARK_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 
 
+NCONMAX = 160
+"""Contacts allocated per world. With multiccd on every mesh, up to 92 contacts (276
+constraint rows) were seen in one world in the contact stress benchmark's runs of two test
+modules (pushes into corners, twisting); the engine raises when a step fills them."""
+NJMAX = 640
+"""Constraint rows allocated per world (3 a contact with the elliptic cone)."""
+
+
 def _warp():
     try:
         import warp as wp
@@ -151,8 +159,8 @@ class WarpBatchSim(PegStateViews):
         task: TaskConfig,
         spare_assets: list[ModuleAsset] | None = None,
         device: str | None = None,
-        nconmax: int = 64,
-        njmax: int = 256,
+        nconmax: int = NCONMAX,
+        njmax: int = NJMAX,
         per_world: tuple[str, ...] = (),
     ) -> None:
         wp, mjw = _warp()
@@ -190,6 +198,12 @@ class WarpBatchSim(PegStateViews):
                 mesh.name = f"m{k}_{name}"
                 mesh.uservert = np.asarray(shape.vertices, float).ravel().tolist()
                 mesh.userface = np.asarray(shape.faces, int).ravel().tolist()
+                # MuJoCo builds a mesh's hull graph and face polygons only where a geom
+                # collides with it, or where its inertia comes from the hull. No geom names
+                # these meshes (worlds take them by mesh id), and without polygons MuJoCo
+                # Warp's multiccd finds one contact where MuJoCo finds four: a peg pressed
+                # flat onto the hole's floor sank 0.23 mm (tests/test_contact_stress_warp.py)
+                mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
         self.mjm = combined.compile()
         # MuJoCo Warp needs its autoreset on (the CPU simulator turns it off, see module doc)
         self.mjm.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
