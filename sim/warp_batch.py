@@ -47,12 +47,14 @@ _PARK = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) * 1e
 _PARK_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 
 
-NCONMAX = 160
-"""Contacts allocated per world. With multiccd on every mesh, up to 92 contacts (276
-constraint rows) were seen in one world in the contact stress benchmark's runs of two test
-modules (pushes into corners, twisting); the engine raises when a step fills them."""
-NJMAX = 640
-"""Constraint rows allocated per world (3 a contact with the elliptic cone)."""
+NCONMAX = 64
+"""Contacts allocated per world, on average: MuJoCo Warp's contact arrays are shared by all
+worlds, so one world may hold more while the total fits. With multiccd on every mesh, up to
+92 contacts were seen in one world in the contact stress benchmark's runs of two test
+modules (pushes into corners, twisting); the engine raises when a step fills the total."""
+NJMAX = 384
+"""Constraint rows allocated per world, each world's own: 3 a contact with the elliptic cone;
+up to 276 seen in those runs."""
 
 
 def _warp():
