@@ -73,6 +73,13 @@ class TaskConfig:
         p = self.physics or PhysicsConfig()
         return p.timestep * p.substeps
 
+    def curriculum_scale(self, env_steps: int) -> float:
+        """Fraction of the full spawn ranges in use after `env_steps` env steps (summed over
+        envs): rising linearly over curriculum_steps, 1 without a curriculum."""
+        if self.curriculum_steps <= 0:
+            return 1.0
+        return min(1.0, env_steps / self.curriculum_steps)
+
     def validate(self) -> TaskConfig:
         if self.physics is not None:
             self.physics.validate()

@@ -408,6 +408,15 @@ def _variant(base: mujoco.MjModel, name: str) -> mujoco.MjModel:
 # ----------------------------------------------------------------------------- running
 
 
+def press_as_force(runs: list[Run], cfg: StressConfig, kv: float) -> None:
+    """The friction runs press with a force, cfg.friction_press: their command is the one
+    that gives it under the actuators' gain kv (every engine's runner sets it so)."""
+    for r in runs:
+        if r.kind == "friction":
+            lin = cfg.friction_speed * r.info["slide"] - np.array([0, 0, cfg.friction_press / kv])
+            r.ctrl = _hold(np.concatenate([lin, np.zeros(3)]))
+
+
 def run_module(
     asset: ModuleAsset,
     model: mujoco.MjModel,
@@ -419,10 +428,7 @@ def run_module(
     runs, geo = module_runs(asset, cfg)
     h = model.opt.timestep
     kv = float(model.actuator_gainprm[0, 0])
-    for r in runs:
-        if r.kind == "friction":
-            lin = cfg.friction_speed * r.info["slide"] - np.array([0, 0, cfg.friction_press / kv])
-            r.ctrl = _hold(np.concatenate([lin, np.zeros(3)]))
+    press_as_force(runs, cfg, kv)
     scratch = mujoco.MjData(model)
     nstate = mujoco.mj_stateSize(model, STATE_SPEC)
     joint = model.body("peg").jntadr[0]

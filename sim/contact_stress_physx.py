@@ -17,7 +17,7 @@ import numpy as np
 
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
-from sim.contact_stress import Run, StressConfig, _figures, _hold, module_runs
+from sim.contact_stress import Run, StressConfig, _figures, module_runs, press_as_force
 from sim.physx_config import PhysxConfig
 
 
@@ -35,10 +35,7 @@ def run_module_physx(
     sim = PhysxBatchSim([asset] * min(batch, len(runs)), task, physx)
     h = physx.timestep
     kv = sim.kv[0]
-    for r in runs:
-        if r.kind == "friction":
-            lin = cfg.friction_speed * r.info["slide"] - np.array([0, 0, cfg.friction_press / kv])
-            r.ctrl = _hold(np.concatenate([lin, np.zeros(3)]))
+    press_as_force(runs, cfg, kv)
     groups: dict[int, list[Run]] = {}
     for r in runs:
         groups.setdefault(round(r.duration / h), []).append(r)

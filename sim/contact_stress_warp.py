@@ -21,7 +21,7 @@ import numpy as np
 
 from sim.assets import ModuleAsset
 from sim.config import TaskConfig
-from sim.contact_stress import Run, StressConfig, _figures, _hold, module_runs
+from sim.contact_stress import Run, StressConfig, _figures, module_runs, press_as_force
 from sim.warp_batch import NCONMAX, NJMAX, WarpBatchSim, _warp
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
@@ -67,15 +67,6 @@ def _kernels():
     return set_ctrl, record, deepest
 
 
-def _press_as_force(runs: list[Run], cfg: StressConfig, kv: float) -> None:
-    """The friction runs press with a force: their command is the one that gives it under
-    the actuators' gain kv (as MuJoCo's and PhysX's runners set it)."""
-    for r in runs:
-        if r.kind == "friction":
-            lin = cfg.friction_speed * r.info["slide"] - np.array([0, 0, cfg.friction_press / kv])
-            r.ctrl = _hold(np.concatenate([lin, np.zeros(3)]))
-
-
 def stress_warp(
     assets: list[ModuleAsset],
     cfg: StressConfig,
@@ -98,7 +89,7 @@ def stress_warp(
     jobs: list[tuple[ModuleAsset, list[Run], object, float]] = []
     for a, module_runs_, geo in plan:
         kv = float(sim._per_module[a.id]["actuator_gainprm"][0, 0])
-        _press_as_force(module_runs_, cfg, kv)
+        press_as_force(module_runs_, cfg, kv)
         jobs.append((a, module_runs_, geo, kv))
     runs = [r for _a, rs, _g, _k in jobs for r in rs]
     nstep = max(round(r.duration / h) for r in runs)
@@ -137,10 +128,10 @@ def stress_warp(
     w0 = 0
     for k, (a, rs, geo, kv) in enumerate(jobs):
         for r in rs:  # each run's own length, as MuJoCo's runs have it
-            m, w = round(r.duration / h), w0
-            s = state[w : w + 1, :m]
+            m, w = round(r.duration / h), slice(w0, w0 + 1)
+            s = state[w, :m]
             pos, quat, vel, ang = s[..., :3], s[..., 3:7], s[..., 7:10], s[..., 10:13]
-            figures = _figures([r], pos, quat, vel, ang, sensor[w : w + 1, :m], geo, cfg, h, kv)
+            figures = _figures([r], pos, quat, vel, ang, sensor[w, :m], geo, cfg, h, kv)
             records += [{"module": a.id, **rec} for rec in figures]
             w0 += 1
         if progress is not None:

@@ -253,9 +253,7 @@ class PegInHoleVecEnv:
 
     def curriculum_scale(self) -> float:
         """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
-        if self.cfg.curriculum_steps <= 0:
-            return 1.0
-        return min(1.0, self.global_step / self.cfg.curriculum_steps)
+        return self.cfg.curriculum_scale(self.global_step)
 
     def peg_poses(self) -> np.ndarray:
         """(num_envs, 4, 4) true peg poses in the module frame."""

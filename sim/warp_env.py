@@ -67,12 +67,13 @@ class WarpTorchVecEnv:
             dataset, num_envs, config, module_ids=module_ids, assignment_seed=assignment_seed,
             rotate_modules=rotate_modules, engine="mujoco-warp", warp_device=device,
         )  # fmt: skip
+        # per-module constants, rows in base._mod_row order (the modules the envs can hold)
+        known = np.flatnonzero(base._mod_row >= 0)
         entrance = base._mod["entrance"]
         flat = np.all(entrance[:, :3, :3] == np.eye(3), axis=(1, 2)) & (entrance[:, 2, 3] == 0)
         if not flat.all():
-            bad = [base.module_ids[k] for k in np.flatnonzero(base._mod_row >= 0)]
             raise ValueError(
-                f"module {bad[int(np.flatnonzero(~flat)[0])]!r}: the env on the device takes "
+                f"module {base.module_ids[known[np.argmin(flat)]]!r}: the env on the device takes "
                 "Table I modules (entrance on the mounting surface, module axes); use "
                 "PegInHoleVecEnv for assembly steps"
             )
@@ -93,8 +94,6 @@ class WarpTorchVecEnv:
         def t(a: Any, dtype: torch.dtype = f64) -> torch.Tensor:
             return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype, device=dev)
 
-        # per-module constants, rows in base._mod_row order (the modules the envs can hold)
-        known = np.flatnonzero(base._mod_row >= 0)
         self._known_ids = [base.module_ids[k] for k in known]
         self._mod_row = t(base._mod_row, torch.int64)
         mf = base._mod_frames
@@ -140,8 +139,6 @@ class WarpTorchVecEnv:
         self._checks = K.Checks.of(cfg.physics)
         self._scale = t([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = t([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
-        self._friction = cfg.friction_range
-        self._restitution = cfg.restitution_range
 
         # module assignment (rotation: a ring of the modules no env holds, as base._queue)
         first, queue = base._first_assignment
@@ -172,9 +169,8 @@ class WarpTorchVecEnv:
         return int(self._unstable.sum())
 
     def curriculum_scale(self) -> float:
-        if self.cfg.curriculum_steps <= 0:
-            return 1.0
-        return min(1.0, self.global_step / self.cfg.curriculum_steps)
+        """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
+        return self.cfg.curriculum_scale(self.global_step)
 
     def _env_frames(self) -> TT.TorchFrames:
         rows = self._mod_row[self.env_module]
@@ -252,9 +248,9 @@ class WarpTorchVecEnv:
         u = torch.rand(
             (3, self.num_envs), generator=self.gen, device=self.device, dtype=torch.float64
         )
-        lo, hi = self._friction
+        lo, hi = self.cfg.friction_range
         friction = lo + (hi - lo) * u[1]
-        lo, hi = self._restitution
+        lo, hi = self.cfg.restitution_range
         e = (lo + (hi - lo) * u[2]).clamp(0.0, 1.0)
         p = self.cfg.physics
         zeta = p.dampratio - e * (p.dampratio - p.min_dampratio)
