@@ -90,14 +90,25 @@ class Run:
     """(P,) env steps of the rows with a frozen-policy probe (`train --probe-steps`)."""
     probe_success_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """(P,) the probe's success rate there."""
+    wall_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """(T,) wall-clock seconds of training at each logged iteration (a resumed run goes on
+    from its checkpoint's); empty for a metrics file without the column."""
+
+    @property
+    def budget(self) -> tuple[int, float]:
+        """(env steps, wall-clock seconds) at the run's last logged iteration."""
+        steps = int(self.env_steps[-1]) if len(self.env_steps) else 0
+        wall = float(self.wall_s[-1]) if len(self.wall_s) else math.nan
+        return steps, wall
 
 
 @dataclass(frozen=True)
 class Curve:
-    """Success rate of a variant's runs on a shared env-step grid.
+    """Success rate of a variant's runs on a shared env-step (or wall-clock) grid.
 
     env_steps, mean, std: (G,) over the range every run covers (cut at the shortest run), each
     run linearly interpolated onto the union of the runs' logged steps; std over runs, ddof 0.
+    A curve over wall-clock time holds minutes in env_steps (`learning_curve(..., wall=True)`).
     """
 
     variant: str
@@ -211,7 +222,9 @@ def load_eval(path: str | Path) -> EvalResult:
     )
 
 
-def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _read_metrics(
+    path: Path,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
         cols = reader.fieldnames or []
@@ -225,7 +238,8 @@ def _read_metrics(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     steps = np.array([int(float(r["env_steps"])) for r in rows], dtype=np.int64)
     probed = [i for i, r in enumerate(rows) if r.get("probe_success_rate")]
     probe = np.array([float(rows[i]["probe_success_rate"]) for i in probed])
-    return steps, np.array(rate), steps[probed], probe
+    wall = np.array([float(r["wall_s"]) for r in rows]) if "wall_s" in cols else np.zeros(0)
+    return steps, np.array(rate), steps[probed], probe, wall
 
 
 def load_run(path: str | Path) -> Run:
@@ -243,7 +257,7 @@ def load_run(path: str | Path) -> Run:
     variant = variant_name(
         meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), meta.get("overrides")
     )
-    steps, rate, probe_steps, probe_rate = _read_metrics(metrics)
+    steps, rate, probe_steps, probe_rate, wall = _read_metrics(metrics)
     evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
     for e in evals:
         if e.variant.removesuffix(SAMPLED) != variant:
@@ -253,7 +267,8 @@ def load_run(path: str | Path) -> Run:
         raise ReportError(
             f"{path} has two evaluation files of one dataset and policy: keep one of each"
         )
-    return Run(path, variant, int(meta.get("seed", 0)), steps, rate, evals, probe_steps, probe_rate)
+    seed = int(meta.get("seed", 0))
+    return Run(path, variant, seed, steps, rate, evals, probe_steps, probe_rate, wall)
 
 
 def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path]]:
@@ -278,11 +293,15 @@ def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path
     return results, skipped
 
 
-def learning_curve(runs: list[Run], probe: bool = False) -> Curve:
+def learning_curve(runs: list[Run], probe: bool = False, wall: bool = False) -> Curve:
     """Mean ± std over `runs` (one variant) of the training success rate, or (probe) of the
-    frozen-policy probe's success rate; runs without probe rows are left out of the latter."""
-    pairs = [(r.probe_env_steps, r.probe_success_rate) if probe else (r.env_steps, r.success_rate)
-             for r in runs]  # fmt: skip
+    frozen-policy probe's success rate; runs without probe rows are left out of the latter.
+    wall: over wall-clock minutes instead of env steps (runs without wall_s are left out)."""
+    if wall:
+        pairs = [(r.wall_s / 60.0, r.success_rate) for r in runs if len(r.wall_s)]
+    else:
+        pairs = [(r.probe_env_steps, r.probe_success_rate) if probe
+                 else (r.env_steps, r.success_rate) for r in runs]  # fmt: skip
     ok = [(s[m], y[m]) for s, y in pairs if (m := ~np.isnan(y)).any()]
     if not ok:
         empty = np.zeros(0)
@@ -306,12 +325,16 @@ def _order(names: set[str]) -> list[str]:
 
 
 def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
-    """Group by variant: {"curves": {variant: Curve}, "cells": {variant: {split: Cell}},
-    "seeds": {variant: [seed, ...]}, "splits": [split, ...]}."""
+    """Group by variant: {"curves": {variant: Curve}, "wall_curves": {variant: Curve over
+    minutes}, "cells": {variant: {split: Cell}}, "seeds": {variant: [seed, ...]},
+    "budgets": {variant: (runs, 2) env steps and wall seconds at each run's end},
+    "splits": [split, ...]}."""
     by_variant: dict[str, list[Run]] = {}
     for r in runs:
         by_variant.setdefault(r.variant, []).append(r)
     curves = {v: learning_curve(rs) for v, rs in by_variant.items()}
+    wall_curves = {v: learning_curve(rs, wall=True) for v, rs in by_variant.items()}
+    budgets = {v: np.array([r.budget for r in rs], dtype=float) for v, rs in by_variant.items()}
     probes = {v: c for v, rs in by_variant.items() if (c := learning_curve(rs, probe=True)).runs}
     evals = [e for r in runs for e in r.evals] + list(baselines)
     groups: dict[tuple[str, str], list[EvalResult]] = {}
@@ -324,6 +347,8 @@ def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
     seeds = {v: sorted(r.seed for r in rs) for v, rs in by_variant.items()}
     return {
         "curves": curves,
+        "wall_curves": wall_curves,
+        "budgets": budgets,
         "probe_curves": probes,
         "cells": cells,
         "seeds": seeds,
@@ -338,11 +363,26 @@ def _pct(cell: Cell | None) -> str:
     return f"{100 * cell.success_mean:.2f}{std} % (n = {cell.episodes})"
 
 
+def _budget(b: np.ndarray | None) -> tuple[str, str]:
+    """Table cells of a variant's training budgets ((runs, 2) env steps, wall seconds): their
+    means over the seeds, as "2.00 M" and "50 min"."""
+    if b is None or not len(b):
+        return DASH, DASH
+    steps, wall = b[:, 0].mean(), b[:, 1]
+    cell = f"{steps / 1e6:.2f} M" if steps >= 1e4 else f"{steps:.0f}"
+    ok = wall[~np.isnan(wall)]
+    if not len(ok):
+        return cell, DASH
+    minutes = ok.mean() / 60
+    return cell, f"{minutes:.0f} min" if minutes >= 10 else f"{minutes:.1f} min"
+
+
 def markdown_table(summary: dict[str, Any]) -> str:
     """Table III layout: one row per agent, success on each split, median time on test."""
     cells, splits = summary["cells"], summary["splits"]
     names = set(ROW_ORDER) | set(cells) | set(summary["curves"])
-    head = ["agent", "seeds", *(f"{s} set" for s in splits), "median time to success (test)"]
+    head = ["agent", "seeds", "env steps", "wall clock", *(f"{s} set" for s in splits)]
+    head += ["median time to success (test)"]
     head += ["paper train set", "paper test set", "paper median (test)"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for v in _order(names):
@@ -353,9 +393,12 @@ def markdown_table(summary: dict[str, Any]) -> str:
         n_seeds = len(summary["seeds"].get(v, [])) or max(
             (c.evals for c in row.values()), default=0
         )
+        steps, wall = _budget(summary.get("budgets", {}).get(v))
         values = [
             v,
             str(n_seeds) if n_seeds else DASH,
+            steps,
+            wall,
             *(_pct(row.get(s)) for s in splits),
             DASH if math.isnan(median) else f"{median:.2f} s",
             f"{paper[0]:.2f} %" if paper else DASH,
@@ -364,7 +407,9 @@ def markdown_table(summary: dict[str, Any]) -> str:
         ]
         lines.append("| " + " | ".join(values) + " |")
     return "\n".join(lines) + (
-        "\n\nSuccess: mean ± std over seeds (one evaluation file each; no ± for one file), "
+        "\n\nEnv steps and wall clock: a seed's training, mean over the seeds (wall clock on "
+        "the machine and load it ran with). "
+        "Success: mean ± std over seeds (one evaluation file each; no ± for one file), "
         "n = episodes pooled. Median time to success pooled over the seeds' successful "
         "episodes. Trained policies act with their mean action (the paper's protocol) unless "
         f"the row says{SAMPLED}. Paper: Orsula et al. 2024, Table III (10 attempts per "
@@ -383,29 +428,17 @@ def palette(variants: set[str]) -> dict[str, Any]:
     return {v: cmap(order[i % 20]) for i, v in enumerate(_order(set(variants)))}
 
 
-def _figure() -> tuple[Any, Any]:
+def _figure(ncols: int = 1) -> tuple[Any, Any]:
     import matplotlib
 
     matplotlib.use("Agg")  # files only: no display on servers and CI
     import matplotlib.pyplot as plt
 
-    return plt.subplots(figsize=(8, 5), dpi=100)
+    return plt.subplots(1, ncols, figsize=(8 * ncols, 5), dpi=100)
 
 
-def plot_learning_curves(
-    curves: dict[str, Curve],
-    path: Path,
-    ylabel: str = "training success rate (%)",
-    title: str = "Learning curves (mean ± std over seeds)",
-    legend: str = "upper left",
-    colors: dict[str, Any] | None = None,
-) -> None:
-    """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG.
-    colors: {variant: colour} (default: `palette` of these curves)."""
-    import matplotlib.pyplot as plt
-
-    colors = colors or palette(set(curves))
-    fig, ax = _figure()
+def _draw_curves(ax: Any, curves: dict[str, Curve], colors: dict[str, Any]) -> None:
+    """Mean line and ± std band of each variant's curve, in table order."""
     for v in _order(set(curves)):
         c = curves[v]
         if not c.runs:
@@ -419,13 +452,39 @@ def plot_learning_curves(
         )
     if not any(c.runs for c in curves.values()):
         ax.text(0.5, 0.5, "no finished training episodes", ha="center", transform=ax.transAxes)
-    ax.set(xlabel="environment steps", ylabel=ylabel, ylim=(-2, 102))
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc=legend, fontsize="small")
+
+
+def plot_learning_curves(
+    curves: dict[str, Curve],
+    path: Path,
+    ylabel: str = "training success rate (%)",
+    title: str = "Learning curves (mean ± std over seeds)",
+    legend: str = "upper left",
+    colors: dict[str, Any] | None = None,
+    wall_curves: dict[str, Curve] | None = None,
+) -> None:
+    """Success rate (%) over env steps, mean line and ± std band per variant, as a PNG.
+    colors: {variant: colour} (default: `palette` of these curves). wall_curves: the same
+    over wall-clock minutes, drawn in a second panel to the right (same colours)."""
+    import matplotlib.pyplot as plt
+
+    colors = colors or palette(set(curves) | set(wall_curves or {}))
+    fig, axes = _figure(2 if wall_curves is not None else 1)
+    panels = [(axes[0] if wall_curves is not None else axes, curves, "environment steps")]
+    if wall_curves is not None:
+        panels.append((axes[1], wall_curves, "wall-clock minutes of training"))
+    for ax, cs, xlabel in panels:
+        _draw_curves(ax, cs, colors)
+        ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(-2, 102))
+        ax.set_title(title if len(panels) == 1 else f"{title}, over {xlabel.split(' of ')[0]}")
+        ax.grid(alpha=0.3)
+    handles, labels = panels[0][0].get_legend_handles_labels()
     fig.tight_layout()
-    fig.savefig(path)
+    if handles and len(panels) == 1:
+        panels[0][0].legend(loc=legend, fontsize="small")
+    elif handles:  # one legend below both panels: the variants' names are long
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), fontsize="small")
+    fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
 
 
@@ -497,11 +556,22 @@ def report_json(summary: dict[str, Any]) -> dict[str, Any]:
             "success_std": c.std.tolist(),
         }
 
+    def wall_curve(c: Curve | None) -> dict[str, Any] | None:
+        if c is None:
+            return None
+        doc = curve(c)
+        return doc and {"wall_min" if k == "env_steps" else k: x for k, x in doc.items()}
+
     for v in _order(set(summary["curves"]) | set(summary["cells"])):
         variants[v] = {
             "seeds": summary["seeds"].get(v, []),
             "curve": curve(summary["curves"].get(v)),
             "probe_curve": curve(summary.get("probe_curves", {}).get(v)),
+            "wall_curve": wall_curve(summary.get("wall_curves", {}).get(v)),
+            "budgets": [
+                {"env_steps": int(st), "wall_s": _num(w)}
+                for st, w in summary.get("budgets", {}).get(v, np.zeros((0, 2)))
+            ],
             "eval": {
                 s: {
                     "files": cell.evals,
@@ -536,7 +606,12 @@ def write_report(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     colors = palette(set(summary["curves"]) | set(summary["cells"]))
-    plot_learning_curves(summary["curves"], out / "learning_curves.png", colors=colors)
+    plot_learning_curves(
+        summary["curves"],
+        out / "learning_curves.png",
+        colors=colors,
+        wall_curves=summary["wall_curves"],
+    )
     if summary["probe_curves"]:
         plot_learning_curves(
             summary["probe_curves"],

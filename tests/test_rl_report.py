@@ -29,18 +29,26 @@ from rl.runner import BASE_COLUMNS
 
 
 def fake_run(
-    path: Path, algo: str, stack: int, seed: int, steps: list[int], rates: list[float]
+    path: Path,
+    algo: str,
+    stack: int,
+    seed: int,
+    steps: list[int],
+    rates: list[float],
+    walls: list[float] | None = None,
 ) -> Path:
-    """A run folder as rl/runner.py train() writes it (config.json, metrics.csv)."""
+    """A run folder as rl/runner.py train() writes it (config.json, metrics.csv); walls: the
+    wall_s column (default: one second per 100 env steps)."""
+    walls = walls if walls is not None else [s / 100 for s in steps]
     path.mkdir(parents=True)
     meta = {"algo": algo, "stack": stack, "seed": seed, "config": {}, "num_envs": 4}
     (path / "config.json").write_text(json.dumps(meta))
     with open(path / "metrics.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=BASE_COLUMNS)
         w.writeheader()
-        for i, (s, r) in enumerate(zip(steps, rates, strict=True)):
-            w.writerow({k: 0 for k in BASE_COLUMNS} | {"iteration": i + 1, "env_steps": s,
-                                                        "success_rate": r})  # fmt: skip
+        for i, (s, r, t) in enumerate(zip(steps, rates, walls, strict=True)):
+            row = {"iteration": i + 1, "env_steps": s, "success_rate": r, "wall_s": t}
+            w.writerow({k: 0 for k in BASE_COLUMNS} | row)
     return path
 
 
@@ -95,12 +103,14 @@ def test_two_seeds_mean_std_and_table_by_hand(tmp_path: Path) -> None:
     table = (tmp_path / "report/table.md").read_text()
     rows = {r.split("|")[1].strip(): [c.strip() for c in r.split("|")[2:-1]]
             for r in table.splitlines() if r.startswith("| ") and "---" not in r}  # fmt: skip
-    assert rows["agent"][:4] == ["seeds", "train set", "test set", "median time to success (test)"]
-    assert rows["SAC-STACK"][:4] == ["2", "90.00 % (n = 10)", "60.00 ± 10.00 % (n = 20)", "6.00 s"]
-    assert rows["SAC-STACK"][4:] == ["82.97 %", "54.70 %", "2.22 s"]  # the paper's, alongside
-    assert rows["scripted"][1:4] == ["–", "100.00 % (n = 4)", "3.75 s"]
-    assert rows["random"][1:4] == ["–", "0.00 % (n = 4)", "–"]
-    assert rows["PPO"][:4] == ["–", "–", "–", "–"]  # no run: every cell missing
+    assert rows["agent"][:6] == ["seeds", "env steps", "wall clock", "train set", "test set",
+                                 "median time to success (test)"]  # fmt: skip
+    assert rows["SAC-STACK"][:3] == ["2", "300", "0.1 min"]  # 300 steps at 100 a second
+    assert rows["SAC-STACK"][3:6] == ["90.00 % (n = 10)", "60.00 ± 10.00 % (n = 20)", "6.00 s"]
+    assert rows["SAC-STACK"][6:] == ["82.97 %", "54.70 %", "2.22 s"]  # the paper's, alongside
+    assert rows["scripted"][1:6] == ["–", "–", "–", "100.00 % (n = 4)", "3.75 s"]
+    assert rows["random"][1:6] == ["–", "–", "–", "0.00 % (n = 4)", "–"]
+    assert rows["PPO"][:6] == ["–"] * 6  # no run: every cell missing
     assert list(rows)[1:] == ["random", "PPO", "PPO-STACK", "SAC", "SAC-STACK", "DreamerV3",
                               "scripted"]  # fmt: skip
     check_png(tmp_path / "report/learning_curves.png")
@@ -119,13 +129,41 @@ def test_curves_cut_at_the_shortest_seed_and_skip_unfinished_iterations(tmp_path
     np.testing.assert_allclose(c.std, [0.2, 0.15, 0.05])
 
 
+def test_wall_clock_curves_and_training_budgets(tmp_path: Path) -> None:
+    """The second panel's curve is over each seed's own wall-clock minutes (seeds that ran at
+    different speeds reach a step count at different times); the table gives the budgets'
+    means over the seeds."""
+    a = fake_run(tmp_path / "a", "sac", 1, 0, [1_000_000, 2_000_000], [0.2, 0.6], [600, 1200])
+    b = fake_run(tmp_path / "b", "sac", 1, 1, [1_500_000, 3_000_000], [0.4, 1.0], [600, 1200])
+    summary = summarise([load_run(a), load_run(b)], [])
+    wall, steps = summary["wall_curves"]["SAC"], summary["curves"]["SAC"]
+    assert wall.runs == 2 and wall.env_steps.tolist() == [10.0, 20.0]  # minutes
+    np.testing.assert_allclose(wall.mean, [0.3, 0.8])
+    np.testing.assert_allclose(wall.std, [0.1, 0.2])
+    # over env steps the curves only share 1.5 M to 2 M, where both seeds go 0.4 -> 0.6
+    assert steps.env_steps.tolist() == [1_500_000, 2_000_000]
+    np.testing.assert_allclose(steps.mean, [0.4, 0.6])
+    np.testing.assert_allclose(steps.std, [0.0, 0.0], atol=1e-12)
+    table = markdown_table(summary)
+    assert "| SAC | 2 | 2.50 M | 20 min |" in table
+    doc = write_report([a, b], [], tmp_path / "out")
+    assert doc["variants"]["SAC"]["wall_curve"]["wall_min"] == [10.0, 20.0]
+    assert doc["variants"]["SAC"]["budgets"] == [
+        {"env_steps": 2_000_000, "wall_s": 1200.0},
+        {"env_steps": 3_000_000, "wall_s": 1200.0},
+    ]
+    img = np.asarray(Image.open(tmp_path / "out/learning_curves.png").convert("RGB"))
+    assert img.shape[1] >= 2 * img.shape[0]  # two panels side by side
+    check_png(tmp_path / "out/learning_curves.png")
+
+
 def test_run_without_evaluations_still_gets_its_curve(tmp_path: Path) -> None:
     run = fake_run(tmp_path / "ppo", "ppo", 10, 0, [64, 128], [0.0, 0.5])
     doc = write_report([run], [], tmp_path / "out")
     assert doc["variants"]["PPO-STACK"]["curve"]["success_mean"] == [0.0, 0.5]
     assert doc["variants"]["PPO-STACK"]["eval"] == {}
     table = (tmp_path / "out/table.md").read_text()
-    assert "| PPO-STACK | 1 | – | – | – | 20.52 % | 20.10 % | – |" in table
+    assert "| PPO-STACK | 1 | 128 | 0.0 min | – | – | – | 20.52 % | 20.10 % | – |" in table
     check_png(tmp_path / "out/learning_curves.png")
     check_png(tmp_path / "out/time_to_success.png")  # says there is no test-set evaluation
 
@@ -157,7 +195,7 @@ def test_cli_parser_runs_the_report_and_fails_cleanly(tmp_path: Path, capsys) ->
     run = fake_run(tmp_path / "run", "sac", 1, 0, [8, 16], [0.0, 1.0])
     args = parser.parse_args(["report", str(run), "--out", str(tmp_path / "rep")])
     assert args.func(args) == 0
-    assert "| SAC | 1 | – | – |" in capsys.readouterr().out
+    assert "| SAC | 1 | 16 | 0.0 min | – | – |" in capsys.readouterr().out
     args = parser.parse_args(["report", str(tmp_path), "--out", str(tmp_path / "rep2")])
     assert args.func(args) == 2
     assert "is not a training run" in " ".join(capsys.readouterr().err.split())
