@@ -115,7 +115,12 @@ def add_train_parser(
     )
     budget = p.add_mutually_exclusive_group()
     budget.add_argument("--steps", type=int, help="total env steps (default: the preset's)")
-    budget.add_argument("--minutes", type=float, help="wall-clock budget of this call")
+    budget.add_argument(
+        "--minutes",
+        type=float,
+        help="wall-clock budget of the run (with --resume: of the whole run, what the "
+        "checkpoint had not spent)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     p.add_argument("--out", type=Path, required=True, help="run folder")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")

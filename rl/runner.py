@@ -473,8 +473,10 @@ def train(
     """Train `algo` ("ppo", "sac", "dreamer", "random") on `env` (the rl/vec_env.py contract).
 
     preset: a name from rl/presets.py or a Setup. steps: total env steps (summed over envs,
-    counted from the run's start, rounded up to whole iterations); minutes: wall-clock
-    limit of this call; neither: the preset's total_steps. stack > 1 wraps the env in
+    counted from the run's start, rounded up to whole iterations); minutes: total wall-clock
+    budget, also counted from the run's start (a resumed run spends what its checkpoint had
+    left: a run cut short and resumed with the same command ends at the same budget);
+    neither: the preset's total_steps. stack > 1 wraps the env in
     StackObs(env, stack). resume continues the run saved in out_dir (same settings
     required). env_options: how `env` was made (e.g. its curriculum length), recorded with
     the run and checked on resume. teacher: a policy of the env's unstacked observations
@@ -580,13 +582,15 @@ def train(
     log = MetricsLog(out_dir, columns, iteration if resume else None, tensorboard)
     bar = _Progress(progress, steps, env_steps)
     t_start = time.perf_counter()
+    wall_before = wall  # spent before this call (a resumed run's checkpoint)
     status, row = "done", {}
     last_saved = iteration if resume else None
     try:
         while True:
             if steps is not None and env_steps >= steps:
                 break
-            if minutes is not None and time.perf_counter() - t_start >= 60.0 * minutes:
+            spent = wall_before + time.perf_counter() - t_start
+            if minutes is not None and spent >= 60.0 * minutes:
                 break
             t_iter = time.perf_counter()
             for _ in range(spi):

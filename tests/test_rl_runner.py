@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 import torch
 
+from rl import checkpoint as ckpt
 from rl.commands import EvalHooks, add_train_parser, eval_main
 from rl.evaluate import evaluate
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
-from rl.runner import load_agent, train
+from rl.runner import CHECKPOINT, load_agent, train
 from rl.sac import SACConfig
 from rl.stack import StackObs
 from tests.toy_env import StatefulToyEnv, ToyEnv
@@ -120,6 +121,18 @@ def test_nan_loss_stops_and_keeps_last_good_checkpoint(algo, tmp_path, capsys) -
     assert before["iterations"] == 2
     for k in w:  # the kept checkpoint is the good one of iteration 2
         assert torch.isfinite(w[k]).all() and torch.equal(w[k], ref[k]), k
+
+
+def test_minutes_is_the_whole_runs_budget_across_resumes(tmp_path) -> None:
+    """--minutes counts from the run's start, as --steps does: resumed with the budget its
+    checkpoint already spent, a run stops at once; with more, it goes on."""
+    _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path, steps=64)
+    spent = ckpt.load(tmp_path / CHECKPOINT)[1]["counters"]["wall_s"]
+    assert spent > 0
+    r = _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path, minutes=spent / 60, resume=True)
+    assert r["iterations"] == 2 and r["env_steps"] == 64  # nothing left to spend
+    r = _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path, minutes=spent / 60 + 1e-4, resume=True)
+    assert r["iterations"] > 2
 
 
 def test_minutes_budget_and_csv(tmp_path) -> None:
