@@ -48,10 +48,19 @@ def shipped_runs() -> tuple[str, ...]:
     )
 
 
+def table3_runs() -> tuple[str, ...]:
+    """The teacher-free rows' seeds that `python -m benchmarks.table3` has filed."""
+    return tuple(
+        str(p.parent.relative_to(ROOT))
+        for p in sorted((RESULTS / "runs" / "table3").glob("*/config.json"))
+    )
+
+
 PAGES: tuple[Page, ...] = (
     Page(
-        "taught",
+        "table3",
         runs=(
+            *table3_runs(),
             "checkpoints/sac-direct-bc",
             "docs/results/runs/sac-direct-bc-s1",
             "docs/results/runs/sac-direct-bc-s2",
@@ -64,8 +73,9 @@ PAGES: tuple[Page, ...] = (
     ),
     Page("shipped", runs=shipped_runs()),
 )
-"""taught: SAC and DreamerV3 taught by the direct expert, three seeds each, next to the
-built-in agents and the paper (the README's table). shipped: every policy in checkpoints/."""
+"""table3: Table III's rows, the teacher-free ones as benchmarks/table3.py files them and SAC
+and DreamerV3 taught by the direct expert (three seeds each), next to the built-in agents and
+the paper (the README's table). shipped: every policy in checkpoints/."""
 
 
 REFEREE: tuple[tuple[str, str, str, str], ...] = (

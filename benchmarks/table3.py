@@ -1,0 +1,177 @@
+"""Table III's teacher-free rows on this machine, one seed at a time: train, evaluate, file.
+
+    python -m benchmarks.table3 ROW --seed S [--minutes 60] [--threads 1]
+    python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
+
+ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer). A trained row runs
+
+    assetgen train --algo ALGO [--stack 10] --dataset train --minutes M --seed S \\
+        --threads T --out runs/table3/ROW-sS
+
+and evaluates the run on the test split under the paper's protocol (every module × 10
+attempts), with its mean action (the paper's) and with sampled actions. It then copies the
+run's config.json, metrics.csv and both evaluation files into docs/results/runs/table3/ROW-sS,
+where `python -m benchmarks.results_pages` reads them (the weights stay in runs/). The
+random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
+
+Every stage is skipped when its output exists, and a training cut short goes on from its last
+checkpoint (`--minutes` is the whole run's budget): the same command picks up where a stopped
+session left it. Two lanes at a time on the 2-core machine, one torch thread each, as the
+published rows were run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "docs" / "results"
+"""Where lanes file their results: runs/table3/ROW-sS and baselines/random_test_sS.json."""
+SEEDS = (0, 1, 2)
+"""The seeds of a row: three, the least a learned figure is reported over."""
+RUN_FILES = ("config.json", "metrics.csv")
+EVALS = {"eval_test.json": (), "eval_test_sampled.json": ("--stochastic",)}
+"""The evaluation files of a trained row and the `assetgen eval` flags that make them."""
+
+
+@dataclass(frozen=True)
+class Row:
+    """A Table III row: how `assetgen train` makes it."""
+
+    algo: str
+    stack: int = 1
+
+
+ROWS: dict[str, Row] = {
+    "random": Row("random"),
+    "ppo": Row("ppo"),
+    "ppo-stack": Row("ppo", 10),
+    "sac": Row("sac"),
+    "sac-stack": Row("sac", 10),
+    "dreamer": Row("dreamer"),
+}
+"""The paper's rows; "-stack" is its STACK variant (the last 10 observations)."""
+
+
+def run_dir(runs: Path, row: str, seed: int) -> Path:
+    return runs / f"{row}-s{seed}"
+
+
+def filed_dir(results: Path, row: str, seed: int) -> Path:
+    return run_dir(results / "runs" / "table3", row, seed)
+
+
+def random_file(results: Path, seed: int) -> Path:
+    return results / "baselines" / f"random_test_s{seed}.json"
+
+
+def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, str]]:
+    """(stage, mark) in order: "+" done, "~" begun (a training's checkpoint), "-" to do."""
+    if row == "random":
+        return [("evaluate", "+" if random_file(results, seed).exists() else "-")]
+    run, filed = run_dir(runs, row, seed), filed_dir(results, row, seed)
+    evaluated = [(run / name).exists() for name in EVALS]
+    begun = (run / "checkpoint.safetensors").exists()
+    marks = [("train", "+" if any(evaluated) else "~" if begun else "-")]
+    marks += [
+        (f"evaluate {name}", "+" if ok else "-") for name, ok in zip(EVALS, evaluated, strict=True)
+    ]
+    filed_ok = all((filed / f).exists() for f in (*RUN_FILES, *EVALS))
+    marks.append(("file", "+" if filed_ok else "-"))
+    return marks
+
+
+def lane(
+    row: str,
+    seed: int,
+    minutes: float,
+    threads: int,
+    runs: Path,
+    dataset: str,
+    test: str,
+    results: Path = RESULTS,
+    preset: str = "cpu",
+    attempts: int = 10,
+) -> int:
+    """Run what the lane still needs; 0 when its results are filed."""
+    from cli import main as assetgen
+
+    def call(argv: list[str]) -> None:
+        print("assetgen " + " ".join(argv), flush=True)
+        rc = assetgen(argv)
+        if rc:
+            raise SystemExit(f"assetgen {argv[0]} stopped with exit code {rc}")
+
+    if row == "random":
+        out = random_file(results, seed)
+        if not out.exists():
+            out.parent.mkdir(parents=True, exist_ok=True)
+            call(["eval", "--agent", "random", "--dataset", test, "--attempts", str(attempts),
+                  "--seed", str(seed), "--out", str(out)])  # fmt: skip
+        return 0
+    spec = ROWS[row]
+    run = run_dir(runs, row, seed)
+    train = ["train", "--algo", spec.algo, "--preset", preset, "--dataset", dataset,
+             "--minutes", f"{minutes:g}",
+             "--seed", str(seed), "--threads", str(threads), "--out", str(run)]  # fmt: skip
+    if spec.stack > 1:
+        train += ["--stack", str(spec.stack)]
+    # always called: a finished run returns at once (its budget is spent), a cut one goes on
+    call(train + (["--resume"] if (run / "checkpoint.safetensors").exists() else []))
+    for name, flags in EVALS.items():
+        if not (run / name).exists():
+            call(["eval", "--checkpoint", str(run), "--dataset", test, "--attempts", str(attempts),
+                  "--threads", str(threads), *flags, "--out", str(run / name)])  # fmt: skip
+    filed = filed_dir(results, row, seed)
+    tmp = filed.with_name(f".{filed.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    for f in (*RUN_FILES, *EVALS):
+        shutil.copy2(run / f, tmp / f)
+    shutil.rmtree(filed, ignore_errors=True)
+    tmp.rename(filed)
+    print(f"filed {filed}: run python -m benchmarks.results_pages")
+    return 0
+
+
+def plan(runs: Path, results: Path = RESULTS) -> str:
+    """One line per row and seed: its stages, done (+), begun (~) or still to do (-)."""
+    lines = []
+    for row in ROWS:
+        for seed in SEEDS:
+            marks = " ".join(m + name for name, m in stages(row, seed, runs, results))
+            lines.append(f"{row:10s} seed {seed}: {marks}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("row", nargs="?", choices=sorted(ROWS), help="the Table III row")
+    ap.add_argument("--seed", type=int, help="the row's seed (0, 1, 2 make the table)")
+    ap.add_argument("--minutes", type=float, default=60.0, help="training budget (wall clock)")
+    ap.add_argument("--threads", type=int, default=1, help="torch threads (1: two lanes at once)")
+    ap.add_argument("--runs", type=Path, default=ROOT / "runs" / "table3", help="run folders")
+    ap.add_argument("--dataset", default="train", help="the training split")
+    ap.add_argument("--test", default="test", help="the evaluation split")
+    ap.add_argument("--preset", default="cpu", help="the agents' preset (rl/presets.py)")
+    ap.add_argument("--attempts", type=int, default=10, help="episodes a module (10: the paper)")
+    ap.add_argument("--results", type=Path, default=RESULTS, help="where results are filed")
+    ap.add_argument("--plan", action="store_true", help="list every lane and what it needs")
+    args = ap.parse_args(argv)
+    if args.plan:
+        print(plan(args.runs, args.results))
+        return 0
+    if args.row is None or args.seed is None:
+        ap.error("give a ROW and --seed S, or --plan")
+    if args.minutes <= 0:
+        ap.error(f"--minutes {args.minutes}: give a positive training budget")
+    return lane(args.row, args.seed, args.minutes, args.threads, args.runs, args.dataset,
+                args.test, args.results, args.preset, args.attempts)  # fmt: skip
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,57 @@
+"""`python -m benchmarks.table3`: a Table III lane trains, evaluates twice and files its results,
+and a lane stopped part way picks up where it stopped."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+from benchmarks.table3 import lane, main, plan
+
+
+def _rows(path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_a_lane_files_its_run_and_picks_up_where_it_stopped(tiny_dataset, tmp_path) -> None:
+    runs, results = tmp_path / "runs", tmp_path / "results"
+    kw = dict(minutes=0.02, threads=1, runs=runs, dataset=str(tiny_dataset),
+              test=str(tiny_dataset), results=results, preset="debug", attempts=1)  # fmt: skip
+    assert "ppo-stack  seed 0: -train" in plan(runs, results)
+    assert lane("ppo-stack", 0, **kw) == 0
+    run, filed = runs / "ppo-stack-s0", results / "runs/table3/ppo-stack-s0"
+    assert sorted(p.name for p in filed.iterdir()) == [
+        "config.json", "eval_test.json", "eval_test_sampled.json", "metrics.csv"]  # fmt: skip
+    det = json.loads((filed / "eval_test.json").read_text())
+    sampled = json.loads((filed / "eval_test_sampled.json").read_text())
+    assert det["policy"] == "deterministic" and sampled["policy"] == "stochastic"
+    assert det["episodes"] == 6 and det["algo"] == "ppo" and det["stack"] == 10
+    assert json.loads((filed / "config.json").read_text())["stack"] == 10
+    trained = _rows(run / "metrics.csv")
+    assert trained and _rows(filed / "metrics.csv") == trained
+    assert "ppo-stack  seed 0: +train +evaluate eval_test.json" in plan(runs, results)
+
+    # a session stopped before the sampled evaluation: the lane does that alone, and its
+    # finished training (budget spent) adds no iteration
+    (run / "eval_test_sampled.json").unlink()
+    before = (run / "eval_test.json").read_bytes()
+    assert "-evaluate eval_test_sampled.json -file" in plan(runs, results)
+    assert main(["ppo-stack", "--seed", "0", "--minutes", "0.02", "--preset", "debug",
+                 "--attempts", "1", "--runs", str(runs), "--results", str(results),
+                 "--dataset", str(tiny_dataset), "--test", str(tiny_dataset)]) == 0  # fmt: skip
+    assert _rows(run / "metrics.csv") == trained
+    assert (run / "eval_test.json").read_bytes() == before
+    assert (filed / "eval_test_sampled.json").exists()
+    assert not list(filed.parent.glob(".*"))  # no temporary folder left
+
+
+def test_the_random_row_is_its_evaluation_filed_with_the_baselines(tiny_dataset, tmp_path):
+    results = tmp_path / "results"
+    kw = dict(minutes=1, threads=1, runs=tmp_path / "runs", dataset=str(tiny_dataset),
+              test=str(tiny_dataset), results=results, attempts=1)  # fmt: skip
+    assert lane("random", 2, **kw) == 0
+    doc = json.loads((results / "baselines/random_test_s2.json").read_text())
+    assert doc["agent"] == "random" and doc["episodes"] == 6
+    assert "random     seed 2: +evaluate" in plan(tmp_path / "runs", results)
+    assert not (tmp_path / "runs").exists()  # nothing trained
