@@ -407,8 +407,7 @@ def markdown_table(summary: dict[str, Any]) -> str:
         ]
         lines.append("| " + " | ".join(values) + " |")
     return "\n".join(lines) + (
-        "\n\nEnv steps and wall clock: a seed's training, mean over the seeds (wall clock on "
-        "the machine and load it ran with). "
+        "\n\nEnv steps, wall clock: a seed's training, mean over the seeds. "
         "Success: mean ± std over seeds (one evaluation file each; no ± for one file), "
         "n = episodes pooled. Median time to success pooled over the seeds' successful "
         "episodes. Trained policies act with their mean action (the paper's protocol) unless "
