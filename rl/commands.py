@@ -136,6 +136,13 @@ def add_train_parser(
         type=int,
         help="env steps over which spawn ranges grow to full (default: the preset's; 0: off)",
     )
+    p.add_argument(
+        "--curriculum-success",
+        type=float,
+        metavar="RATE",
+        help="widen the spawn ranges when the training episodes succeed at RATE or more "
+        "(in (0, 1]; a success-gated curriculum instead of --curriculum-steps)",
+    )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument(
         "--threads",
@@ -235,6 +242,18 @@ def train_main(
                     f"--curriculum-steps {args.curriculum_steps}: give 0 (off) or more steps"
                 )
             curriculum = args.curriculum_steps
+        gated = getattr(args, "curriculum_success", None)
+        if gated is not None:
+            if not 0.0 < gated <= 1.0:
+                raise ValueError(
+                    f"--curriculum-success {gated}: give a success rate in (0, 1], e.g. 0.8"
+                )
+            if args.curriculum_steps is not None:
+                raise ValueError(
+                    "--curriculum-success and --curriculum-steps exclude each other: the "
+                    "spawn ranges follow either success or env steps"
+                )
+        gate = {} if gated is None else {"curriculum_success": gated}
         teacher = None
         demos = getattr(args, "demos", None)
         if demos is not None:
@@ -267,6 +286,7 @@ def train_main(
             curriculum_steps=curriculum,
             keep_physics=keep,
             **on_engine,
+            **gate,
         )
         result = train(
             args.algo,
@@ -280,7 +300,7 @@ def train_main(
             stack=args.stack,
             device=args.device,
             progress=not args.no_progress,
-            env_options={"curriculum_steps": curriculum, **on_engine},
+            env_options={"curriculum_steps": curriculum, **on_engine, **gate},
             teacher=teacher,
             demos=demos,
             overrides=overrides,

@@ -318,6 +318,17 @@ def env_physics(env: Any) -> dict[str, Any] | None:
     return None
 
 
+def env_curriculum(env: Any) -> Any | None:
+    """The success-gated curriculum of `env` (through wrappers; sim/curriculum.py), whose
+    level the metrics log as curriculum_scale, or None."""
+    while env is not None:
+        found = getattr(env, "curriculum", None)
+        if found is not None:
+            return found
+        env = getattr(env, "env", None)
+    return None
+
+
 def run_meta(algo: str, config: AlgoConfig, env: VecEnv, stack: int, seed: int) -> dict[str, Any]:
     """What must match between a checkpoint and the run that resumes it (the env's physics
     among it: a run continued on a dataset of other physics would mix two tasks)."""
@@ -578,7 +589,9 @@ def train(
     if probe is not None and (probe_steps is None or probe_steps < 1):
         raise ValueError(f"probe_steps = {probe_steps}: give a positive number of env steps")
     probe_every = math.ceil(probe_steps / per_iter) if probe is not None and probe_steps else 0
+    curriculum = env_curriculum(env)
     columns = BASE_COLUMNS + tuple(agent.log_keys) + (PROBE_COLUMNS if probe else ())
+    columns += ("curriculum_scale",) if curriculum is not None else ()
     log = MetricsLog(out_dir, columns, iteration if resume else None, tensorboard)
     bar = _Progress(progress, steps, env_steps)
     t_start = time.perf_counter()
@@ -619,6 +632,7 @@ def train(
                 "episodes": stats.total,
                 **stats.summary(),
                 **losses,
+                **({} if curriculum is None else {"curriculum_scale": curriculum.level}),
             }
             if probe_every and iteration % probe_every == 0:
                 # before the checkpoint: its RNG state is then the one a resume continues from

@@ -45,6 +45,16 @@ class TaskConfig:
     curriculum_steps: int = 50_000_000
     """Environment steps (summed over envs) over which the spawn ranges grow linearly from
     zero to full; 0 turns the curriculum off (full ranges from the start)."""
+    curriculum_success: float | None = None
+    """If set, the spawn ranges follow the training episodes' success instead of the env
+    steps (sim/curriculum.py): starting at the entrance, they widen by
+    `curriculum_increment` of the full ranges whenever `curriculum_window` finished episodes
+    succeeded at this rate or more, and narrow by as much below half of it; curriculum_steps
+    is then unused."""
+    curriculum_increment: float = 0.05
+    """Step of the success-gated curriculum, a fraction of the full spawn ranges."""
+    curriculum_window: int = 256
+    """Finished training episodes between two decisions of the success-gated curriculum."""
     friction_range: tuple[float, float] = (0.0, 1.0)
     """Static and dynamic friction coefficients are each drawn uniformly here at reset.
     MuJoCo has one Coulomb coefficient: it gets the dynamic one (see scene.py)."""
@@ -86,6 +96,10 @@ class TaskConfig:
         checks = {
             "max_steps >= 1": self.max_steps >= 1,
             "curriculum_steps >= 0": self.curriculum_steps >= 0,
+            "curriculum_success is None or in (0, 1]": self.curriculum_success is None
+            or 0.0 < self.curriculum_success <= 1.0,
+            "0 < curriculum_increment <= 1": 0.0 < self.curriculum_increment <= 1.0,
+            "curriculum_window >= 1": self.curriculum_window >= 1,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],
             "success_radius > 0": self.success_radius > 0,
         }

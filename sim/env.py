@@ -42,6 +42,7 @@ from sim import task as T
 from sim.assets import ModuleAsset, check_physics, dataset_root, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
+from sim.curriculum import SuccessCurriculum
 from sim.physx_config import PhysxConfig
 
 
@@ -177,6 +178,16 @@ class PegInHoleVecEnv:
         n = self.num_envs
         self.global_step = 0
         """Environment steps taken so far, summed over envs (drives the curriculum)."""
+        self.curriculum = (
+            None
+            if self.cfg.curriculum_success is None
+            else SuccessCurriculum(
+                self.cfg.curriculum_success,
+                self.cfg.curriculum_increment,
+                self.cfg.curriculum_window,
+            )
+        )
+        """The success-gated curriculum (TaskConfig.curriculum_success), or None."""
         self.unstable_count = 0
         """Episodes cut short because their physics went unstable."""
         self.rng = np.random.default_rng()
@@ -253,6 +264,8 @@ class PegInHoleVecEnv:
 
     def curriculum_scale(self) -> float:
         """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
+        if self.curriculum is not None:
+            return self.curriculum.level
         return self.cfg.curriculum_scale(self.global_step)
 
     def peg_poses(self) -> np.ndarray:
@@ -408,6 +421,8 @@ class PegInHoleVecEnv:
             "module": self.env_module.copy(),
             "peg_pose": self.sim.state[:, 1:8].copy(),
         }
+        if self.curriculum is not None:  # before the resets: they spawn at the new scale
+            self.curriculum.update(done, success)
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
@@ -438,6 +453,7 @@ class PegInHoleVecEnv:
             "unstable_count": int(self.unstable_count),
             "env_module": self.env_module.copy(),
             "queue": np.array(self._queue, dtype=np.int64),
+            **({} if self.curriculum is None else {"curriculum": self.curriculum.state()}),
         }
 
     def set_state(self, state: dict) -> None:
@@ -458,6 +474,11 @@ class PegInHoleVecEnv:
                 )
         if "env_module" not in state:
             raise ValueError("env state without 'env_module': saved by an older version")
+        if ("curriculum" in state) != (self.curriculum is not None):
+            raise ValueError(
+                "env state and env differ in their curriculum (success-gated or by env "
+                "steps): build the env with the same curriculum_success"
+            )
         env_module = np.asarray(state["env_module"], dtype=np.int64)
         if env_module.shape != self.env_module.shape or (
             not self.rotate_modules and not np.array_equal(env_module, self.env_module)
@@ -485,21 +506,29 @@ class PegInHoleVecEnv:
         self.rng = rng
         self.global_step = int(state["global_step"])
         self.unstable_count = int(state["unstable_count"])
+        if self.curriculum is not None:
+            self.curriculum.load(state["curriculum"])
 
     def close(self) -> None:
         self.sim.close()
 
 
 def train_config(
-    dataset: str, curriculum_steps: int | None = None, keep_physics: bool = False
+    dataset: str,
+    curriculum_steps: int | None = None,
+    keep_physics: bool = False,
+    curriculum_success: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
-    curriculum over `curriculum_steps` env steps (default: the paper's 50 M), the physics of
+    curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
+    the training episodes' `curriculum_success` rate (sim/curriculum.py), the physics of
     the dataset's files checked (see make_train_env)."""
     root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
     if curriculum_steps is not None:
         config = replace(config, curriculum_steps=int(curriculum_steps))
+    if curriculum_success is not None:
+        config = replace(config, curriculum_success=float(curriculum_success)).validate()
     return root, config
 
 
@@ -510,6 +539,7 @@ def make_train_env(
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
     engine: str = "mujoco",
+    curriculum_success: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -519,7 +549,7 @@ def make_train_env(
     simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
     serves one env per module, so num_envs must cover the dataset's modules; for training
     on mujoco-warp the command line takes sim/warp_env.py's env, the task on the device)."""
-    root, config = train_config(dataset, curriculum_steps, keep_physics)
+    root, config = train_config(dataset, curriculum_steps, keep_physics, curriculum_success)
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
     )

@@ -61,6 +61,11 @@ class WarpTorchVecEnv:
         device: str | None = None,
         check_every: int = 64,
     ) -> None:
+        if config is not None and config.curriculum_success is not None:
+            raise ValueError(
+                "curriculum_success: the success-gated curriculum runs in the host env "
+                "(PegInHoleVecEnv) only; the env on the device takes curriculum_steps"
+            )
         # the host env builds the engine and the per-module tables; this env then keeps its
         # own copies on the device and steps the engine itself
         base = PegInHoleVecEnv(
@@ -402,9 +407,15 @@ def make_device_train_env(
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
     engine: str = "mujoco-warp",
+    curriculum_success: float | None = None,
 ) -> WarpTorchVecEnv:
     """sim.env.make_train_env's env on the device: the same task, modules in turns."""
     if engine != "mujoco-warp":
         raise ValueError(f"engine = {engine!r}: the env on the device runs on mujoco-warp")
+    if curriculum_success is not None:
+        raise ValueError(
+            "--curriculum-success: the success-gated curriculum runs in the host env only "
+            "(--sim mujoco or physx); on the device, give --curriculum-steps"
+        )
     root, config = train_config(dataset, curriculum_steps, keep_physics)
     return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
