@@ -33,6 +33,15 @@ class Page:
     """Built-in agents' evaluation files or folders of them, relative to the root."""
     readme: bool = False
     """Also write the table into README.md (between rl.report's table markers)."""
+    screening: bool = False
+    """A screening page: every run its own row named by its folder, evaluated on the train
+    split (the candidates are chosen there), without the paper's rows."""
+
+    @property
+    def attempts(self) -> int:
+        """Attempts a module of the page's evaluations: the paper's 10; a screening's 2 (on
+        256 train modules: a candidate costs minutes to screen, not the hour of a test)."""
+        return 2 if self.screening else 10
 
     def run_paths(self) -> list[Path]:
         return [ROOT / r for r in self.runs]
@@ -48,12 +57,17 @@ def shipped_runs() -> tuple[str, ...]:
     )
 
 
-def table3_runs() -> tuple[str, ...]:
-    """The teacher-free rows' seeds that `python -m benchmarks.table3` has filed."""
+def filed_runs(folder: str) -> tuple[str, ...]:
+    """The run folders (with a config.json) under docs/results/runs/<folder>/."""
     return tuple(
         str(p.parent.relative_to(ROOT))
-        for p in sorted((RESULTS / "runs" / "table3").glob("*/config.json"))
+        for p in sorted((RESULTS / "runs" / folder).glob("*/config.json"))
     )
+
+
+def table3_runs() -> tuple[str, ...]:
+    """The teacher-free rows' seeds that `python -m benchmarks.table3` has filed."""
+    return filed_runs("table3")
 
 
 PAGES: tuple[Page, ...] = (
@@ -72,10 +86,12 @@ PAGES: tuple[Page, ...] = (
         readme=True,
     ),
     Page("shipped", runs=shipped_runs()),
+    Page("screening", runs=filed_runs("screening"), screening=True),
 )
 """table3: Table III's rows, the teacher-free ones as benchmarks/table3.py files them and SAC
 and DreamerV3 taught by the direct expert (three seeds each), next to the built-in agents and
-the paper (the README's table). shipped: every policy in checkpoints/."""
+the paper (the README's table). shipped: every policy in checkpoints/. screening: the
+teacher-free candidates, one seed each on the train split (docs/results/runs/screening/)."""
 
 
 REFEREE: tuple[tuple[str, str, str, str], ...] = (
@@ -195,7 +211,8 @@ def page_table(page: Page) -> str:
     from rl.report import load_baselines, load_run, markdown_table, summarise
 
     base, _ = load_baselines(page.baseline_paths())
-    return markdown_table(summarise([load_run(p) for p in page.run_paths()], base))
+    runs = [load_run(p, p.name if page.screening else None) for p in page.run_paths()]
+    return markdown_table(summarise(runs, base), paper=not page.screening)
 
 
 def readme_table() -> str:
@@ -226,7 +243,13 @@ def main(argv: list[str] | None = None) -> int:
             if page.readme and readme_table() != now:
                 stale.append("README.md")
             continue
-        write_report(page.run_paths(), page.baseline_paths(), out)
+        write_report(
+            page.run_paths(),
+            page.baseline_paths(),
+            out,
+            label_runs=page.screening,
+            paper=not page.screening,
+        )
         print(f"wrote {out.relative_to(ROOT)}/")
         if page.readme:
             replace_table(ROOT / "README.md", table.read_text())

@@ -126,16 +126,21 @@ def lane(
         if not (run / name).exists():
             call(["eval", "--checkpoint", str(run), "--dataset", test, "--attempts", str(attempts),
                   "--threads", str(threads), *flags, "--out", str(run / name)])  # fmt: skip
-    filed = filed_dir(results, row, seed)
+    file_run(run, filed_dir(results, row, seed), {f: f for f in (*RUN_FILES, *EVALS)})
+    return 0
+
+
+def file_run(run: Path, filed: Path, files: dict[str, str]) -> None:
+    """Copy a run's files {name in the run: name filed} into `filed`, whole or not at all
+    (a temporary folder, renamed), replacing what was filed there before."""
     tmp = filed.with_name(f".{filed.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
-    for f in (*RUN_FILES, *EVALS):
-        shutil.copy2(run / f, tmp / f)
+    for src, dst in files.items():
+        shutil.copy2(run / src, tmp / dst)
     shutil.rmtree(filed, ignore_errors=True)
     tmp.rename(filed)
     print(f"filed {filed}: run python -m benchmarks.results_pages")
-    return 0
 
 
 def plan(runs: Path, results: Path = RESULTS) -> str:

@@ -26,7 +26,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -242,8 +242,10 @@ def _read_metrics(
     return steps, np.array(rate), steps[probed], probe, wall
 
 
-def load_run(path: str | Path) -> Run:
-    """Read a run folder: config.json, metrics.csv and any eval_*.json."""
+def load_run(path: str | Path, label: str | None = None) -> Run:
+    """Read a run folder: config.json, metrics.csv and any eval_*.json. label: the run's
+    row instead of its variant's name (a screening page, where every run is a candidate of
+    its own and two runs of one variant are not seeds of one recipe)."""
     path = Path(path)
     config, metrics = path / "config.json", path / "metrics.csv"
     if not path.is_dir() or not config.is_file() or not metrics.is_file():
@@ -268,6 +270,12 @@ def load_run(path: str | Path) -> Run:
             f"{path} has two evaluation files of one dataset and policy: keep one of each"
         )
     seed = int(meta.get("seed", 0))
+    if label is not None:
+        variant = label
+        evals = tuple(
+            replace(e, variant=label + (SAMPLED if e.variant.endswith(SAMPLED) else ""))
+            for e in evals
+        )
     return Run(path, variant, seed, steps, rate, evals, probe_steps, probe_rate, wall)
 
 
@@ -377,19 +385,31 @@ def _budget(b: np.ndarray | None) -> tuple[str, str]:
     return cell, f"{minutes:.0f} min" if minutes >= 10 else f"{minutes:.1f} min"
 
 
-def markdown_table(summary: dict[str, Any]) -> str:
-    """Table III layout: one row per agent, success on each split, median time on test."""
+def median_split(summary: dict[str, Any]) -> str:
+    """The split whose times to success the table and plot give: the test split, or the
+    train split where nothing was evaluated on the test split (a screening page)."""
+    cells = summary["cells"].values()
+    return "test" if any("test" in row for row in cells) or not cells else "train"
+
+
+def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
+    """Table III layout: one row per agent, success on each split, median time on test.
+    paper: with the paper's rows always shown and its figures beside ours; without, only
+    the variants given (a screening page)."""
     cells, splits = summary["cells"], summary["splits"]
-    names = set(ROW_ORDER) | set(cells) | set(summary["curves"])
+    if not paper:  # only the splits something was evaluated on
+        splits = [s for s in splits if any(s in row for row in cells.values())]
+    names = set(cells) | set(summary["curves"]) | (set(ROW_ORDER) if paper else set())
+    on = median_split(summary)
     head = ["agent", "seeds", "env steps", "wall clock", *(f"{s} set" for s in splits)]
-    head += ["median time to success (test)"]
-    head += ["paper train set", "paper test set", "paper median (test)"]
+    head += [f"median time to success ({on})"]
+    if paper:
+        head += ["paper train set", "paper test set", "paper median (test)"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for v in _order(names):
         row = cells.get(v, {})
-        test = row.get("test")
+        test = row.get(on)
         median = test.median_time_to_success_s if test is not None else math.nan
-        paper = PAPER_SUCCESS_PCT.get(v)
         n_seeds = len(summary["seeds"].get(v, [])) or max(
             (c.evals for c in row.values()), default=0
         )
@@ -401,18 +421,22 @@ def markdown_table(summary: dict[str, Any]) -> str:
             wall,
             *(_pct(row.get(s)) for s in splits),
             DASH if math.isnan(median) else f"{median:.2f} s",
-            f"{paper[0]:.2f} %" if paper else DASH,
-            f"{paper[1]:.2f} %" if paper else DASH,
-            f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
         ]
+        if paper:
+            ref = PAPER_SUCCESS_PCT.get(v)
+            values += [
+                f"{ref[0]:.2f} %" if ref else DASH,
+                f"{ref[1]:.2f} %" if ref else DASH,
+                f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
+            ]
         lines.append("| " + " | ".join(values) + " |")
     return "\n".join(lines) + (
         "\n\nEnv steps, wall clock: a seed's training, mean over the seeds. "
         "Success: mean ± std over seeds (one evaluation file each; no ± for one file), "
         "n = episodes pooled. Median time to success pooled over the seeds' successful "
         "episodes. Trained policies act with their mean action (the paper's protocol) unless "
-        f"the row says{SAMPLED}. Paper: Orsula et al. 2024, Table III (10 attempts per "
-        "module).\n"
+        f"the row says{SAMPLED}."
+        + (" Paper: Orsula et al. 2024, Table III (10 attempts per module).\n" if paper else "\n")
     )
 
 
@@ -591,13 +615,18 @@ def report_json(summary: dict[str, Any]) -> dict[str, Any]:
 
 
 def write_report(
-    run_paths: list[str | Path], baselines: list[str | Path], out: str | Path
+    run_paths: list[str | Path],
+    baselines: list[str | Path],
+    out: str | Path,
+    label_runs: bool = False,
+    paper: bool = True,
 ) -> dict[str, Any]:
     """Read everything first (so bad input fails before any file is written), then write
     out/learning_curves.png, out/time_to_success.png, out/table.md, out/report.json, and
-    out/probe_curves.png when runs logged a frozen-policy probe.
+    out/probe_curves.png when runs logged a frozen-policy probe. label_runs: every run its
+    own row, named by its folder (`load_run`'s label); paper: as in `markdown_table`.
     Returns the report.json document."""
-    runs = [load_run(p) for p in run_paths]
+    runs = [load_run(p, Path(p).name if label_runs else None) for p in run_paths]
     base, skipped = load_baselines(baselines)
     if not runs and not base:
         raise ReportError("nothing to report: give run folders and/or --baselines")
@@ -620,8 +649,10 @@ def write_report(
             legend="lower right",
             colors=colors,
         )
-    plot_time_to_success(summary["cells"], out / "time_to_success.png", colors=colors)
-    (out / "table.md").write_text(markdown_table(summary))
+    plot_time_to_success(
+        summary["cells"], out / "time_to_success.png", median_split(summary), colors=colors
+    )
+    (out / "table.md").write_text(markdown_table(summary, paper))
     doc = report_json(summary) | {"skipped_baselines": [str(f) for f in skipped]}
     (out / "report.json").write_text(json.dumps(doc, indent=2))
     return doc

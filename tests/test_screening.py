@@ -1,0 +1,44 @@
+"""`python -m benchmarks.screening`: a candidate's train-split screening, filed as a page row."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from benchmarks.screening import main, screen
+from cli import main as assetgen
+from rl.report import load_run, markdown_table, summarise
+
+
+def test_a_candidate_is_screened_once_and_filed_under_its_name(tiny_dataset, tmp_path) -> None:
+    run, results = tmp_path / "run", tmp_path / "results"
+    assert assetgen(["train", "--algo", "ppo", "--preset", "debug", "--dataset",
+                     str(tiny_dataset), "--envs", "2", "--steps", "256", "--no-progress",
+                     "--threads", "1", "--out", str(run)]) == 0  # fmt: skip
+    filed = screen(run, "ppo-debug", results=results, dataset=str(tiny_dataset))
+    assert filed == results / "runs/screening/ppo-debug"
+    assert sorted(p.name for p in filed.iterdir()) == [
+        "config.json", "eval_train.json", "eval_train_sampled.json", "jams_train.json",
+        "metrics.csv"]  # fmt: skip
+    det = json.loads((filed / "eval_train.json").read_text())
+    assert det["attempts"] == 2 and det["episodes"] == 12 and det["policy"] == "deterministic"
+    assert json.loads((filed / "eval_train_sampled.json").read_text())["policy"] == "stochastic"
+    assert json.loads((filed / "jams_train.json").read_text())["modules"] == 6
+    # screened again: nothing is evaluated twice
+    before = (run / "screen_train_det.json").read_bytes()
+    screen(run, "ppo-debug", results=results, dataset=str(tiny_dataset))
+    assert (run / "screen_train_det.json").read_bytes() == before
+    # on the page the candidate is its own row, named by its folder
+    table = markdown_table(summarise([load_run(filed, filed.name)], []), paper=False)
+    assert "| ppo-debug | 1 | 256 |" in table and "| ppo-debug (sampled) | 1 |" in table
+    assert "test set" not in table  # only the split it was screened on
+    assert "paper train set" not in table and "Orsula" not in table
+
+
+def test_bad_input_is_named(tmp_path, capsys) -> None:
+    with pytest.raises(SystemExit, match=r"no checkpoint\.safetensors"):
+        screen(tmp_path, "x", results=tmp_path / "results")
+    with pytest.raises(SystemExit):
+        main([str(tmp_path), "--as", "a/b"])
+    assert "--as 'a/b': give a plain folder name" in capsys.readouterr().err
