@@ -74,6 +74,9 @@ BASE_COLUMNS = (
     "length_mean",
     "time_to_success_median",
 )
+"""Columns every metrics.csv has. wall_s: wall-clock seconds of training since the run
+began (logs, probes and checkpoints included; a resumed run goes on from its checkpoint's);
+steps_per_s: the env steps of the row's iteration over its own time."""
 
 PROBE_COLUMNS = ("probe_success_rate", "probe_time_to_success_median", "probe_truncation_rate")
 """Columns of the frozen-policy probe (`train --probe-steps`), empty in other rows."""
@@ -596,14 +599,20 @@ def train(
     bar = _Progress(progress, steps, env_steps)
     t_start = time.perf_counter()
     wall_before = wall  # spent before this call (a resumed run's checkpoint)
+    first_iteration = iteration
     status, row = "done", {}
     last_saved = iteration if resume else None
+    budget_spent = False
     try:
         while True:
             if steps is not None and env_steps >= steps:
                 break
             spent = wall_before + time.perf_counter() - t_start
             if minutes is not None and spent >= 60.0 * minutes:
+                # the checkpoint records the budget as spent, so that the same command with
+                # --resume stops at once instead of taking one more iteration
+                budget_spent = iteration > first_iteration
+                wall = spent if budget_spent else wall
                 break
             t_iter = time.perf_counter()
             for _ in range(spi):
@@ -622,8 +631,9 @@ def train(
                 raise NonFiniteLossError("the weights became NaN/inf in the last update")
             iteration += 1
             env_steps += per_iter
-            dt = time.perf_counter() - t_iter
-            wall += dt
+            now = time.perf_counter()
+            dt = now - t_iter
+            wall = wall_before + now - t_start  # logs, probes and checkpoints included
             row = {
                 "iteration": iteration,
                 "env_steps": env_steps,
@@ -645,7 +655,7 @@ def train(
                 if not stateful:  # the re-seed a resumed run repeats (see module doc)
                     obs = env.reset(seed=env_seed(seed, iteration))
                     _episodes_restart(agent, n)
-        if last_saved != iteration:
+        if last_saved != iteration or budget_spent:
             _save(path, meta, agent, iteration, env_steps, wall, stats, env, obs)
     except NonFiniteLossError as e:
         status = "nan"
