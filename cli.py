@@ -276,10 +276,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return bench_main(args)
         except (DatasetError, AssetError, ValueError, ImportError) as e:
             return _err(str(e))
-    if getattr(args, "sim", "mujoco") != "mujoco" and args.what != "contacts":
+    if getattr(args, "sim", "mujoco") != "mujoco" and args.what not in ("contacts", "load"):
         return _err(
-            f"bench {args.what} --sim {args.sim}: only `bench sim` and `bench contacts` run on "
-            "PhysX"
+            f"bench {args.what} --sim {args.sim}: only `bench sim`, `bench contacts` and "
+            "`bench load` take another engine than mujoco"
         )
     if args.what == "contacts":
         from assetgen.dataset.spec import DatasetError
@@ -304,11 +304,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "load":
         from assetgen.dataset.spec import DatasetError, resolve
         from sim.assets import AssetError
+        from sim.bench_build import bench_build
         from sim.bench_load import bench_load
 
         try:
-            result = bench_load(resolve(args.dataset)[0], n=args.n)
-        except (DatasetError, AssetError) as e:
+            root = resolve(args.dataset)[0]
+            result = bench_load(root, n=args.n)
+            # and what the engine (--sim) costs a module at construction
+            built = bench_build(root, n=args.n, engine=args.sim)
+            result |= {f"{args.sim}_{k}": v for k, v in built.items() if k != "engine"}
+        except (DatasetError, AssetError, ValueError) as e:
             return _err(str(e))
     elif args.what == "assets":
         from assetgen.bench import bench_assets

@@ -239,3 +239,8 @@ def test_bench_load(tiny_dataset):
     assert figures["modules"] == 2
     assert figures["mjcf_ms"] > 0 and figures["packed_ms"] > 0 and figures["mjspec_ms"] > 0
     assert not list(Path(tiny_dataset).glob(".bench-load-*"))  # its scratch files are gone
+    # the engine's construction, a module at a time (--sim mujoco by default)
+    assert figures["mujoco_modules"] == 2 and figures["mujoco_build_ms_per_module"] > 0
+    assert figures["mujoco_build_min_for_100k_modules"] == pytest.approx(
+        figures["mujoco_build_ms_per_module"] * 1e5 / 6e4
+    )

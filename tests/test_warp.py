@@ -226,3 +226,17 @@ def test_without_a_gpu_warp_asks_for_allow_cpu(command, monkeypatch, capsys, tmp
     err = capsys.readouterr().err.strip()
     assert "--allow-cpu" in err and f"{sim.warp_batch.CPU_SLOWDOWN} times slower" in err, err
     assert "\n" not in err and not built
+
+
+def test_bench_build_sizes_what_a_module_costs_the_warp_engine() -> None:
+    """`assetgen bench load --sim mujoco-warp`: the per-module cost at construction. The
+    model the device gets holds each module's meshes, so it grows with the modules."""
+    from sim.bench_build import bench_build
+
+    two = bench_build(_dataset(), n=2, engine="mujoco-warp")
+    three = bench_build(_dataset(), n=3, engine="mujoco-warp")
+    assert two["modules"] == 2 and three["modules"] == 3
+    assert two["build_ms_per_module"] > 0 and two["device_model_mb_per_module"] > 0
+    assert three["device_model_mb_per_module"] * 3 > two["device_model_mb_per_module"] * 2
+    with pytest.raises(ValueError, match="at least 2 modules"):
+        bench_build(_dataset(), n=1, engine="mujoco-warp")
