@@ -1,6 +1,7 @@
 """Table III's teacher-free rows on this machine, one seed at a time: train, evaluate, file.
 
     python -m benchmarks.table3 ROW --seed S [--minutes 60] [--threads 1]
+    python -m benchmarks.table3 --next            # the lanes still to do, one after another
     python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
 
 ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer). A trained row runs
@@ -17,12 +18,14 @@ random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
 Every stage is skipped when its output exists, and a training cut short goes on from its last
 checkpoint (`--minutes` is the whole run's budget): the same command picks up where a stopped
 session left it. Two lanes at a time on the 2-core machine, one torch thread each, as the
-published rows were run.
+published rows were run: two `--next` processes share the lanes (each claims the one it runs
+in a file beside the runs; a claim whose process has gone is taken over).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -143,6 +146,58 @@ def file_run(run: Path, filed: Path, files: dict[str, str]) -> None:
     print(f"filed {filed}: run python -m benchmarks.results_pages")
 
 
+def lanes() -> list[tuple[str, int]]:
+    """Every lane, in the order `--next` takes them: row by row in the paper's order (the
+    random row first, an evaluation alone), seeds 0, 1, 2, so whole rows fill first."""
+    return [(row, seed) for row in ROWS for seed in SEEDS]
+
+
+def _claim(runs: Path, row: str, seed: int) -> Path | None:
+    """Claim a lane for this process (a file naming its pid, created exclusively); None
+    when a live process holds it. A claim whose process is gone (a stopped session) is
+    taken over."""
+    runs.mkdir(parents=True, exist_ok=True)
+    claim = runs / f".{row}-s{seed}.claim"
+    for _ in range(2):
+        try:
+            fd = os.open(claim, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            try:
+                pid = int(claim.read_text() or 0)
+                os.kill(pid, 0)  # raises when no such process
+                return None
+            except (ValueError, ProcessLookupError, FileNotFoundError):
+                claim.unlink(missing_ok=True)  # stale: its holder is gone
+                continue
+            except PermissionError:  # a live process of another user
+                return None
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        return claim
+    return None
+
+
+def next_lanes(runs: Path, results: Path, run_lane, limit: int | None = None) -> int:
+    """Run the lanes that are not filed and not held by another process, in `lanes()`
+    order, until none is left (or `limit` lanes ran). Two such processes share the work."""
+    done = 0
+    for row, seed in lanes():
+        if limit is not None and done >= limit:
+            break
+        if all(mark == "+" for _, mark in stages(row, seed, runs, results)):
+            continue
+        claim = _claim(runs, row, seed)
+        if claim is None:
+            continue
+        try:
+            print(f"lane {row} seed {seed}", flush=True)
+            run_lane(row, seed)
+            done += 1
+        finally:
+            claim.unlink(missing_ok=True)
+    return done
+
+
 def plan(runs: Path, results: Path = RESULTS) -> str:
     """One line per row and seed: its stages, done (+), begun (~) or still to do (-)."""
     lines = []
@@ -166,16 +221,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--attempts", type=int, default=10, help="episodes a module (10: the paper)")
     ap.add_argument("--results", type=Path, default=RESULTS, help="where results are filed")
     ap.add_argument("--plan", action="store_true", help="list every lane and what it needs")
+    ap.add_argument(
+        "--next",
+        action="store_true",
+        help="run the lanes still to do, in order, skipping those another process holds "
+        "(start two for the 2-core machine)",
+    )
     args = ap.parse_args(argv)
     if args.plan:
         print(plan(args.runs, args.results))
         return 0
-    if args.row is None or args.seed is None:
-        ap.error("give a ROW and --seed S, or --plan")
     if args.minutes <= 0:
         ap.error(f"--minutes {args.minutes}: give a positive training budget")
-    return lane(args.row, args.seed, args.minutes, args.threads, args.runs, args.dataset,
-                args.test, args.results, args.preset, args.attempts)  # fmt: skip
+
+    def run_lane(row: str, seed: int) -> int:
+        return lane(row, seed, args.minutes, args.threads, args.runs, args.dataset,
+                    args.test, args.results, args.preset, args.attempts)  # fmt: skip
+
+    if args.next:
+        ran = next_lanes(args.runs, args.results, run_lane)
+        print(f"{ran} lanes run; python -m benchmarks.table3 --plan says what is left")
+        return 0
+    if args.row is None or args.seed is None:
+        ap.error("give a ROW and --seed S, --next, or --plan")
+    return run_lane(args.row, args.seed)
 
 
 if __name__ == "__main__":

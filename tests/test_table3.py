@@ -55,3 +55,34 @@ def test_the_random_row_is_its_evaluation_filed_with_the_baselines(tiny_dataset,
     assert doc["agent"] == "random" and doc["episodes"] == 6
     assert "random     seed 2: +evaluate" in plan(tmp_path / "runs", results)
     assert not (tmp_path / "runs").exists()  # nothing trained
+
+
+def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_path) -> None:
+    import os
+    import subprocess
+    import sys
+
+    from benchmarks.table3 import _claim, lanes, next_lanes
+
+    runs, results = tmp_path / "runs", tmp_path / "results"
+    assert lanes()[:4] == [("random", 0), ("random", 1), ("random", 2), ("ppo", 0)]
+    # random 0 is filed already; random 1 is held by a live process; random 2's holder is gone
+    (results / "baselines").mkdir(parents=True)
+    (results / "baselines/random_test_s0.json").write_text("{}")
+    runs.mkdir()
+    (runs / ".random-s1.claim").write_text(str(os.getppid()))
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    (runs / ".random-s2.claim").write_text(gone)
+    ran = []
+
+    def fake_lane(row: str, seed: int) -> int:
+        assert (runs / f".{row}-s{seed}.claim").read_text() == str(os.getpid())  # held
+        ran.append((row, seed))
+        return 0
+
+    assert next_lanes(runs, results, fake_lane, limit=2) == 2
+    assert ran == [("random", 2), ("ppo", 0)]
+    assert not (runs / ".random-s2.claim").exists() and not (runs / ".ppo-s0.claim").exists()
+    assert (runs / ".random-s1.claim").exists()  # the live holder keeps its lane
+    assert _claim(runs, "random", 1) is None
