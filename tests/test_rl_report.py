@@ -157,6 +157,20 @@ def test_wall_clock_curves_and_training_budgets(tmp_path: Path) -> None:
     check_png(tmp_path / "out/learning_curves.png")
 
 
+def test_a_long_wall_clock_curve_is_thinned_to_even_points(tmp_path: Path) -> None:
+    from rl.report import WALL_POINTS
+
+    steps = list(range(100, 100 * 1001, 100))
+    walls = [0.37 * i + 0.001 * (i % 7) for i in range(1, 1001)]  # uneven log times
+    a = fake_run(tmp_path / "a", "ppo", 1, 0, steps, [0.5] * 1000, walls)
+    c = summarise([load_run(a)], [])["wall_curves"]["PPO"]
+    assert len(c.env_steps) == WALL_POINTS
+    np.testing.assert_allclose(np.diff(c.env_steps), np.diff(c.env_steps)[0])
+    assert c.env_steps[0] == pytest.approx(walls[0] / 60)
+    assert c.env_steps[-1] == pytest.approx(walls[-1] / 60)
+    np.testing.assert_allclose(c.mean, 0.5)
+
+
 def test_run_without_evaluations_still_gets_its_curve(tmp_path: Path) -> None:
     run = fake_run(tmp_path / "ppo", "ppo", 10, 0, [64, 128], [0.0, 0.5])
     doc = write_report([run], [], tmp_path / "out")
