@@ -65,16 +65,11 @@ def filed_runs(folder: str) -> tuple[str, ...]:
     )
 
 
-def table3_runs() -> tuple[str, ...]:
-    """The teacher-free rows' seeds that `python -m benchmarks.table3` has filed."""
-    return filed_runs("table3")
-
-
 PAGES: tuple[Page, ...] = (
     Page(
         "table3",
         runs=(
-            *table3_runs(),
+            *filed_runs("table3"),  # the teacher-free rows' seeds benchmarks/table3.py filed
             "checkpoints/sac-direct-bc",
             "docs/results/runs/sac-direct-bc-s1",
             "docs/results/runs/sac-direct-bc-s2",
@@ -208,11 +203,10 @@ def assembly_table() -> str:
 
 def page_table(page: Page) -> str:
     """The markdown table the page's inputs give now."""
-    from rl.report import load_baselines, load_run, markdown_table, summarise
+    from rl.report import load_summary, markdown_table
 
-    base, _ = load_baselines(page.baseline_paths())
-    runs = [load_run(p, p.name if page.screening else None) for p in page.run_paths()]
-    return markdown_table(summarise(runs, base), paper=not page.screening)
+    summary, _ = load_summary(page.run_paths(), page.baseline_paths(), page.screening)
+    return markdown_table(summary, paper=not page.screening)
 
 
 def readme_table() -> str:

@@ -618,6 +618,18 @@ def report_json(summary: dict[str, Any]) -> dict[str, Any]:
     return {"variants": variants, "paper_table_iii": paper}
 
 
+def load_summary(
+    run_paths: list[str | Path], baselines: list[str | Path], label_runs: bool = False
+) -> tuple[dict[str, Any], list[Path]]:
+    """`summarise` of the run folders and evaluation files given (label_runs: as in
+    `write_report`), and the baseline files skipped; ReportError when there is nothing."""
+    runs = [load_run(p, Path(p).name if label_runs else None) for p in run_paths]
+    base, skipped = load_baselines(baselines)
+    if not runs and not base:
+        raise ReportError("nothing to report: give run folders and/or --baselines")
+    return summarise(runs, base), skipped
+
+
 def write_report(
     run_paths: list[str | Path],
     baselines: list[str | Path],
@@ -630,11 +642,7 @@ def write_report(
     out/probe_curves.png when runs logged a frozen-policy probe. label_runs: every run its
     own row, named by its folder (`load_run`'s label); paper: as in `markdown_table`.
     Returns the report.json document."""
-    runs = [load_run(p, Path(p).name if label_runs else None) for p in run_paths]
-    base, skipped = load_baselines(baselines)
-    if not runs and not base:
-        raise ReportError("nothing to report: give run folders and/or --baselines")
-    summary = summarise(runs, base)
+    summary, skipped = load_summary(run_paths, baselines, label_runs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     colors = palette(set(summary["curves"]) | set(summary["cells"]))

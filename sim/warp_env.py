@@ -63,8 +63,9 @@ class WarpTorchVecEnv:
     ) -> None:
         if config is not None and config.curriculum_success is not None:
             raise ValueError(
-                "curriculum_success: the success-gated curriculum runs in the host env "
-                "(PegInHoleVecEnv) only; the env on the device takes curriculum_steps"
+                "curriculum_success (--curriculum-success): the success-gated curriculum "
+                "runs in the host env only (PegInHoleVecEnv: --sim mujoco or physx); the env "
+                "on the device takes curriculum_steps (--curriculum-steps)"
             )
         # the host env builds the engine and the per-module tables; this env then keeps its
         # own copies on the device and steps the engine itself
@@ -412,10 +413,6 @@ def make_device_train_env(
     """sim.env.make_train_env's env on the device: the same task, modules in turns."""
     if engine != "mujoco-warp":
         raise ValueError(f"engine = {engine!r}: the env on the device runs on mujoco-warp")
-    if curriculum_success is not None:
-        raise ValueError(
-            "--curriculum-success: the success-gated curriculum runs in the host env only "
-            "(--sim mujoco or physx); on the device, give --curriculum-steps"
-        )
-    root, config = train_config(dataset, curriculum_steps, keep_physics)
+    # WarpTorchVecEnv refuses a success-gated curriculum: it runs in the host env only
+    root, config = train_config(dataset, curriculum_steps, keep_physics, curriculum_success)
     return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
