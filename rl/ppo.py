@@ -49,6 +49,9 @@ class PPOConfig:
     """Initial log standard deviation of the Gaussian policy (0: std 1)."""
     normalize_obs: bool = True
     """Normalise observations with running statistics (updated after each rollout)."""
+    obs_symlog_scale: float | None = None
+    """If set, the networks see symlog(k obs) with k this (then normalised): 1000 reads
+    positions in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
     reward_scale: float = 1.0
     """Rewards are multiplied by this before learning (logged returns are not)."""
     desired_kl: float | None = None
@@ -85,6 +88,9 @@ class PPOConfig:
             "0 < gamma <= 1": 0 < self.gamma <= 1,
             "0 <= gae_lambda <= 1": 0 <= self.gae_lambda <= 1,
             "learning_rate > 0": self.learning_rate > 0,
+            "obs_symlog_scale is None or > 0": (
+                self.obs_symlog_scale is None or self.obs_symlog_scale > 0
+            ),
             "bounds_loss_coef >= 0": self.bounds_loss_coef >= 0,
             "final_std is None or > 0": self.final_std is None or self.final_std > 0,
             "0 <= std_decay_start <= std_decay_end": (
@@ -159,7 +165,13 @@ class PPO:
         self.device = torch.device(device)
         self.num_envs = num_envs
         self.net = ActorCritic(
-            obs_dim, act_dim, cfg.hidden, cfg.init_log_std, cfg.normalize_obs, cfg.activation
+            obs_dim,
+            act_dim,
+            cfg.hidden,
+            cfg.init_log_std,
+            cfg.normalize_obs,
+            cfg.activation,
+            cfg.obs_symlog_scale,
         ).to(self.device)
         self.opt = torch.optim.Adam(self.net.parameters(), lr=cfg.learning_rate, eps=1e-5)
         self.steps_per_iteration = cfg.horizon
@@ -306,7 +318,7 @@ class PPO:
                 ):
                     sums[k] += v
                 n_updates += 1
-        self.net.obs_norm.update(obs)  # statistics change between rollouts only
+        self.net.obs_norm.update(self.net.encode(obs))  # statistics change between rollouts only
         self.updates += 1
         cap = cfg.std_cap(self.updates * b)
         if cap is not None:  # the parameter itself is capped: checkpoints carry the std used

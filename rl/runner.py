@@ -147,6 +147,18 @@ def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
     return cls(**{k: tuple(v) if k in tuples else v for k, v in d.items()})
 
 
+def _with_new_defaults(run: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's run record with the config fields added since it was written at their
+    defaults (which keep the old behaviour), so that adding a field does not strand runs."""
+    cls = ALGOS.get(run.get("algo", ""))
+    saved = run.get("config")
+    if cls is None or not isinstance(saved, dict):
+        return run
+    if not set(saved) <= {f.name for f in fields(cls)}:  # a removed field: report it as is
+        return run
+    return {**run, "config": _jsonable(asdict(config_from_dict(run["algo"], saved)))}
+
+
 def env_seed(seed: int, iteration: int) -> int:
     """The env seed used at `iteration` (0: the start) of a run seeded `seed`."""
     return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
@@ -559,7 +571,7 @@ def train(
                 f"(timestep {meta['physics']['timestep']} s)[/]"
             )
             wanted = {k: v for k, v in meta.items() if k != "physics"}
-        ckpt.check_compatible(doc["run"], wanted, path)
+        ckpt.check_compatible(_with_new_defaults(doc["run"]), wanted, path)
         ckpt.load_modules(agent.modules(), doc["agent"], tensors)
         extra = doc["agent_extra"]
         agent.load_extra_state(ckpt.unpack(extra["tensors"], tensors), extra["values"])

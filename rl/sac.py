@@ -40,6 +40,9 @@ class SACConfig:
     hidden features whatever the input's scale, so one far-out observation cannot send the
     critics' outputs and gradients off (on in the cpu preset; whether resetting runaway pegs,
     see sim/scene.py, makes it unnecessary is not measured)."""
+    obs_symlog_scale: float | None = None
+    """If set, the actor and the critics see symlog(k obs) with k this: 1000 reads positions
+    in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
     max_grad_norm: float | None = None
     """Clip the gradient norm of the critics and of the actor to this (None: no clipping);
     the norms before clipping are logged either way."""
@@ -95,6 +98,9 @@ class SACConfig:
             "entropy_coef > 0": self.entropy_coef > 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
             "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
+            "obs_symlog_scale is None or > 0": (
+                self.obs_symlog_scale is None or self.obs_symlog_scale > 0
+            ),
             "bc_weight >= 0": self.bc_weight >= 0,
             "bc_decay_steps >= 0": self.bc_decay_steps >= 0,
             "teacher_noise >= 0": self.teacher_noise >= 0,
@@ -228,10 +234,10 @@ class SAC:
         self.cfg = cfg.validate()
         self.device = torch.device(device)
         self.num_envs, self.act_dim = num_envs, act_dim
-        h, f, ln = cfg.hidden, cfg.activation, cfg.layer_norm
-        self.actor = SquashedGaussianActor(obs_dim, act_dim, h, f, ln).to(self.device)
-        self.q1 = QNetwork(obs_dim, act_dim, h, f, ln).to(self.device)
-        self.q2 = QNetwork(obs_dim, act_dim, h, f, ln).to(self.device)
+        h, f, ln, k = cfg.hidden, cfg.activation, cfg.layer_norm, cfg.obs_symlog_scale
+        self.actor = SquashedGaussianActor(obs_dim, act_dim, h, f, ln, k).to(self.device)
+        self.q1 = QNetwork(obs_dim, act_dim, h, f, ln, k).to(self.device)
+        self.q2 = QNetwork(obs_dim, act_dim, h, f, ln, k).to(self.device)
         self.q1_target, self.q2_target = copy.deepcopy(self.q1), copy.deepcopy(self.q2)
         for p in [*self.q1_target.parameters(), *self.q2_target.parameters()]:
             p.requires_grad_(False)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor
+from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor, SymlogObs
 from rl.ppo import PPO, PPOConfig, bounds_loss, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
@@ -166,6 +166,45 @@ def test_log_probs() -> None:
     actor = SquashedGaussianActor(3, 2, (8,))
     a, logp = actor(torch.zeros(4, 3))
     assert a.shape == (4, 2) and logp.shape == (4,) and (a.abs() < 1).all()
+
+
+def test_symlog_obs_reads_millimetres_and_reaches_every_network() -> None:
+    """symlog(1000 x): a millimetre is ln 2 near the hole, where the raw input moves by 1e-3;
+    far away ten centimetres move it about as much. Every network applies it to the
+    observation only (the Q-function's action stays raw), and PPO normalises what it saw."""
+    enc = SymlogObs(1000.0)
+    x = torch.tensor([0.0, 0.001, -0.001, 0.1, 0.2])
+    y = enc(x)
+    assert y[1].item() == pytest.approx(math.log(2.0)) and y[2].item() == -y[1].item()
+    assert (y[4] - y[3]).item() == pytest.approx(math.log(201 / 101))  # 10 cm, far out
+    assert torch.equal(SymlogObs(None)(x), x)
+    torch.manual_seed(0)
+    obs = torch.randn(16, 18) * 0.01
+    act = torch.rand(16, 6) * 2 - 1
+    q = QNetwork(18, 6, (8,), obs_symlog_scale=1000.0)
+    with torch.no_grad():
+        want = q.net(torch.cat([symlog_ref(1000.0 * obs), act], -1)).squeeze(-1)
+        assert torch.allclose(q(obs, act), want)
+        actor = SquashedGaussianActor(18, 6, (8,), obs_symlog_scale=1000.0)
+        mean = actor.net(symlog_ref(1000.0 * obs)).chunk(2, -1)[0]
+        assert torch.allclose(actor(obs, deterministic=True)[0], torch.tanh(mean))
+    ppo = PPO(18, 6, 4, PPOConfig(hidden=(8,), horizon=4, minibatch_size=16, epochs=1,
+                                 obs_symlog_scale=1000.0))  # fmt: skip
+    for _ in range(4):
+        ppo.act(obs[:4].numpy())
+        ppo.process_step(obs[4:8].numpy(), np.zeros(4), np.zeros(4, bool), np.zeros(4, bool),
+                         {"final_obs": obs[4:8].numpy()})  # fmt: skip
+    ppo.update(obs[8:12].numpy())
+    seen = symlog_ref(1000.0 * obs[:4]).double()
+    assert torch.allclose(ppo.net.obs_norm.mean, seen.mean(0), atol=1e-6)
+    with pytest.raises(ValueError, match="obs_symlog_scale"):
+        PPOConfig(obs_symlog_scale=0.0).validate()
+    with pytest.raises(ValueError, match="obs_symlog_scale"):
+        SACConfig(obs_symlog_scale=-1.0).validate()
+
+
+def symlog_ref(x: torch.Tensor) -> torch.Tensor:
+    return torch.sign(x) * torch.log1p(x.abs())
 
 
 def test_layer_norm_bounds_q_on_far_out_observations() -> None:

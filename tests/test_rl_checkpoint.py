@@ -135,3 +135,19 @@ def test_check_compatible_lists_every_difference() -> None:
         e.value
     )
     ckpt.check_compatible({"a": [1]}, {"a": [1]}, "p")
+
+
+def test_a_config_field_added_later_resumes_at_its_default(tmp_path) -> None:
+    """A checkpoint written before a config field existed resumes when the run asks for the
+    field's default (the behaviour it was trained with), and is refused when it asks for
+    another value."""
+    _run(tmp_path)
+    path = tmp_path / CHECKPOINT
+    tensors, doc = ckpt.load(path)
+    del doc["run"]["config"]["obs_symlog_scale"]  # as written before the field existed
+    ckpt.save(path, tensors, doc)
+    other = Setup(PPOConfig(hidden=(8,), horizon=4, minibatch_size=16, epochs=1,
+                            obs_symlog_scale=1000.0), 4, 32, 16)  # fmt: skip
+    with pytest.raises(ckpt.CheckpointError, match="obs_symlog_scale: checkpoint None, now 1000"):
+        _run(tmp_path, setup=other, resume=True, steps=64)
+    assert _run(tmp_path, resume=True, steps=64)["status"] == "done"
