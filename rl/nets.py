@@ -101,8 +101,8 @@ class SymlogObs(nn.Module):
 
     Peg-in-hole's positions are in metres: a 1 mm error near the hole moves the input by
     1e-3, while spawns span 0.5 m. With k = 1000 (millimetres) symlog gives a millimetre
-    near the hole about the weight of 10 cm far from it (DreamerV3's encoding of vector
-    inputs, with the scale its `obs_scale` adds)."""
+    near the hole about the weight of 10 cm far from it. This is DreamerV3's encoding of
+    vector inputs; rl.dreamer's world model uses it with its `obs_scale`."""
 
     def __init__(self, scale: float | None = None) -> None:
         super().__init__()

@@ -17,9 +17,9 @@ from rl.dreamer.distributions import (
     kl_losses,
     mode_onehot,
     sample_straight_through,
-    symlog,
     unimix_logits,
 )
+from rl.nets import SymlogObs
 
 
 def dense(in_dim: int, out_dim: int) -> nn.Sequential:
@@ -181,6 +181,7 @@ class WorldModel(nn.Module):
         self.cfg = cfg
         u, n = cfg.units, cfg.layers
         feat = cfg.deter + cfg.stoch * cfg.classes
+        self.obs_symlog = SymlogObs(cfg.obs_scale)  # the encoder's input, the decoder's target
         self.encoder = nn.Sequential(*[dense(obs_dim if i == 0 else u, u) for i in range(n)])
         self.rssm = RSSM(cfg, act_dim, u)
         self.decoder = mlp(feat, u, n, obs_dim)
@@ -195,7 +196,7 @@ class WorldModel(nn.Module):
     def embed(self, obs: torch.Tensor) -> torch.Tensor:
         """e = encoder(symlog(k obs)), k = obs_scale: the symlog bounds the inputs whatever
         their scale."""
-        return self.encoder(symlog(self.cfg.obs_scale * obs))
+        return self.encoder(self.obs_symlog(obs))
 
     def loss(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, State, dict]:
         """The world-model loss of a batch of sequences (B, T, ...): obs, prev_action,
@@ -210,7 +211,7 @@ class WorldModel(nn.Module):
             self.embed(batch["obs"]), batch["prev_action"], batch["is_first"]
         )
         feat = post.feat()
-        target = symlog(cfg.obs_scale * batch["obs"])
+        target = self.obs_symlog(batch["obs"])
         obs_loss = (self.decoder(feat).float() - target).pow(2).sum(-1)
         reward_loss = -self.twohot.log_prob(self.reward(feat), batch["reward"])
         cont_target = 1.0 - batch["is_terminal"].to(feat.dtype)
