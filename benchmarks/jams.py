@@ -28,6 +28,7 @@ def run(
     """One episode per module; the jams' figures (see module doc)."""
     import torch
 
+    from rl.checkpoint import read_counters
     from rl.runner import load_agent, reset_hook
     from sim.env import make_eval_env
 
@@ -81,6 +82,7 @@ def run(
     ]
     return {
         "checkpoint": checkpoint,
+        "trained_env_steps": read_counters(checkpoint).get("env_steps"),
         "dataset": dataset,
         "modules": n,
         "policy": "stochastic" if stochastic else "deterministic",

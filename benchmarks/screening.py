@@ -8,7 +8,8 @@ A candidate is one seed of a recipe, chosen on the train split only. Its screeni
         [--stochastic] --out RUN_DIR/screen_train_{det,sto}.json
     python -m benchmarks.jams RUN_DIR --modules 64 --json RUN_DIR/jams_train.json
 
-(each skipped when its file is there), then the run's config.json and metrics.csv, both
+(each skipped when its file is there and holds the checkpoint's present training state:
+a run resumed since is evaluated again), then the run's config.json and metrics.csv, both
 evaluations and the jams go to docs/results/runs/screening/NAME, where `python -m
 benchmarks.results_pages` makes the screening page: one row and one learning curve per
 candidate. One seed is a draw, not a result: the page says where to look.
@@ -17,10 +18,12 @@ candidate. One seed is a draw, not a result: the page says where to look.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
 from benchmarks.table3 import RESULTS, RUN_FILES, file_run
+from rl.checkpoint import read_counters
 
 MODULES, ATTEMPTS, JAM_MODULES = 256, 2, 64
 """The first 256 train modules × 2 attempts; the jams on the first 64."""
@@ -40,15 +43,22 @@ def screen(run: Path, name: str, threads: int = 1, results: Path = RESULTS,
 
     if not (run / "checkpoint.safetensors").is_file():
         raise SystemExit(f"{run}: no checkpoint.safetensors; give a run folder of assetgen train")
+    steps = read_counters(run).get("env_steps")
+
+    def current(name: str) -> bool:
+        """Whether run/name is there and of the checkpoint's present training state."""
+        f = run / name
+        return f.is_file() and json.loads(f.read_text()).get("trained_env_steps") == steps
+
     for src, (_, flags) in SCREENS.items():
-        if not (run / src).exists():
+        if not current(src):
             argv = ["eval", "--checkpoint", str(run), "--dataset", dataset, "--modules",
                     str(MODULES), "--attempts", str(ATTEMPTS), "--threads", str(threads),
                     *flags, "--out", str(run / src)]  # fmt: skip
             print("assetgen " + " ".join(argv), flush=True)
             if assetgen(argv):
                 raise SystemExit(f"assetgen eval of {run} failed")
-    if not (run / JAMS).exists():
+    if not current(JAMS):
         jams.main([str(run), "--dataset", dataset, "--modules", str(JAM_MODULES),
                    "--json", str(run / JAMS)])  # fmt: skip
     filed = results / "runs" / "screening" / name

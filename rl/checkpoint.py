@@ -24,6 +24,8 @@ import numpy as np
 import torch
 
 FORMAT = "rl-checkpoint/1"
+FILE_NAME = "checkpoint.safetensors"
+"""A run folder's checkpoint."""
 
 
 class CheckpointError(RuntimeError):
@@ -163,6 +165,25 @@ def load(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
     except (KeyError, json.JSONDecodeError) as e:
         raise CheckpointError(f"{path} is corrupt: unreadable JSON metadata ({e})") from e
     return tensors, doc
+
+
+def read_counters(path: str | Path) -> dict[str, Any]:
+    """The training counters (iteration, env_steps, wall_s) of a checkpoint file or run
+    folder, from its JSON metadata alone: the tensors are neither read nor checked, so this
+    is cheap for a large replay buffer. {} for a checkpoint that holds none."""
+    from safetensors import SafetensorError, safe_open
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / FILE_NAME
+    if not path.is_file():
+        raise CheckpointError(f"no checkpoint at {path}")
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            doc = json.loads((f.metadata() or {}).get("json", "{}"))
+    except (SafetensorError, OSError, ValueError, RuntimeError) as e:
+        raise CheckpointError(f"{path} is corrupt or not a checkpoint ({e})") from e
+    return dict(doc.get("counters") or {})
 
 
 def check_compatible(saved: dict[str, Any], wanted: dict[str, Any], path: str | Path) -> None:

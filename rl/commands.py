@@ -377,7 +377,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         if run is not None:
             import torch
 
-            from rl.checkpoint import CheckpointError
+            from rl.checkpoint import CheckpointError, read_counters
             from rl.report import variant_name
             from rl.runner import load_agent, reset_hook
             from rl.stack import StackObs
@@ -419,6 +419,8 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 "demos": meta.get("demos"),
                 "overrides": meta.get("overrides", {}),
                 "run": str(run),
+                # which training state was evaluated: a resumed run's older evaluation is stale
+                "trained_env_steps": read_counters(run).get("env_steps"),
                 "policy": "stochastic" if stochastic else "deterministic",
             }
             name = f"{variant_name(meta['algo'], meta['stack'], meta.get('demos'))} ({run})"

@@ -62,7 +62,7 @@ ALGOS: dict[str, type] = {
     "random": RandomConfig,
 }
 """Algorithm name -> its config class."""
-CHECKPOINT = "checkpoint.safetensors"
+CHECKPOINT = ckpt.FILE_NAME
 BASE_COLUMNS = (
     "iteration",
     "env_steps",

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 
+import rl.checkpoint
 import rl.runner
 from benchmarks import jams
 from sim.expert import direct_expert_action
@@ -27,11 +28,13 @@ def test_a_peg_pressed_down_beside_the_hole_is_reported_as_a_jam(
     monkeypatch, tmp_path, capsys
 ) -> None:
     monkeypatch.setattr(rl.runner, "load_agent", lambda path, device=None: (OffAxis(), {}))
+    monkeypatch.setattr(rl.checkpoint, "read_counters", lambda path: {"env_steps": 4096})
     out = tmp_path / "jams.json"
     assert jams.main(["unused", "--dataset", str(sim_dataset()), "--modules", "2",
                       "--json", str(out)]) == 0  # fmt: skip
     res = json.loads(out.read_text())
     assert res["modules"] == 2 and res["successes"] == 0 and len(res["jams"]) == 2
+    assert res["trained_env_steps"] == 4096  # which weights jammed
     for r in res["jams"]:
         assert 6.0 < r["offset_mm"] < 10.0
         assert abs(r["below_entrance_mm"]) < 5.0 and r["moved_mm"] < 1.0  # at the plate, held

@@ -53,6 +53,11 @@ def test_agent_round_trip(tmp_path) -> None:
         assert torch.equal(a, b), k
     obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
     np.testing.assert_array_equal(agent.policy(obs), agent2.policy(obs))
+    # the counters alone, without the tensors: what an evaluation records of its weights
+    _, doc = ckpt.load(tmp_path / CHECKPOINT)
+    assert ckpt.read_counters(tmp_path) == doc["counters"] and "env_steps" in doc["counters"]
+    with pytest.raises(ckpt.CheckpointError, match="no checkpoint at"):
+        ckpt.read_counters(tmp_path / "missing")
 
 
 def test_corrupt_checkpoints_raise(tmp_path) -> None:
