@@ -4,10 +4,11 @@
     python -m benchmarks.table3 --next            # the lanes still to do, one after another
     python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
 
-ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer). A trained row runs
+ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog:
+the best teacher-free candidate screened, 120 minutes). A trained row runs
 
-    assetgen train --algo ALGO [--stack 10] --dataset train --minutes M --seed S \\
-        --threads T --out runs/table3/ROW-sS
+    assetgen train --algo ALGO [--stack 10] [--set FIELD=VALUE] --dataset train --minutes M \\
+        --seed S --threads T --out runs/table3/ROW-sS
 
 and evaluates the run on the test split under the paper's protocol (every module × 10
 attempts), with its mean action (the paper's) and with sampled actions. It then copies the
@@ -47,6 +48,10 @@ class Row:
 
     algo: str
     stack: int = 1
+    overrides: tuple[str, ...] = ()
+    """`--set FIELD=VALUE` overrides of the preset's config (a screened candidate's)."""
+    minutes: float | None = None
+    """The row's own training budget; None: the lane's --minutes (60, the paper's rows)."""
 
 
 ROWS: dict[str, Row] = {
@@ -56,8 +61,11 @@ ROWS: dict[str, Row] = {
     "sac": Row("sac"),
     "sac-stack": Row("sac", 10),
     "dreamer": Row("dreamer"),
+    "sac-symlog": Row("sac", overrides=("obs_symlog_scale=1000",), minutes=120.0),
 }
-"""The paper's rows; "-stack" is its STACK variant (the last 10 observations)."""
+"""The paper's rows ("-stack": its STACK variant, the last 10 observations), then the best
+teacher-free candidate of the screening (docs/results/README.md), with its overrides and its
+two hours."""
 
 
 def run_dir(runs: Path, row: str, seed: int) -> Path:
@@ -118,11 +126,14 @@ def lane(
         return 0
     spec = ROWS[row]
     run = run_dir(runs, row, seed)
+    minutes = spec.minutes if spec.minutes is not None else minutes
     train = ["train", "--algo", spec.algo, "--preset", preset, "--dataset", dataset,
              "--minutes", f"{minutes:g}",
              "--seed", str(seed), "--threads", str(threads), "--out", str(run)]  # fmt: skip
     if spec.stack > 1:
         train += ["--stack", str(spec.stack)]
+    for kv in spec.overrides:
+        train += ["--set", kv]
     # always called: a finished run returns at once (its budget is spent), a cut one goes on
     call(train + (["--resume"] if (run / "checkpoint.safetensors").exists() else []))
     for name, flags in EVALS.items():
@@ -212,7 +223,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("row", nargs="?", choices=sorted(ROWS), help="the Table III row")
     ap.add_argument("--seed", type=int, help="the row's seed (0, 1, 2 make the table)")
-    ap.add_argument("--minutes", type=float, default=60.0, help="training budget (wall clock)")
+    ap.add_argument("--minutes", type=float, default=60.0,
+                    help="training budget (wall clock); a row with its own keeps it")  # fmt: skip
     ap.add_argument("--threads", type=int, default=1, help="torch threads (1: two lanes at once)")
     ap.add_argument("--runs", type=Path, default=ROOT / "runs" / "table3", help="run folders")
     ap.add_argument("--dataset", default="train", help="the training split")

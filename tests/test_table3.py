@@ -46,6 +46,26 @@ def test_a_lane_files_its_run_and_picks_up_where_it_stopped(tiny_dataset, tmp_pa
     assert not list(filed.parent.glob(".*"))  # no temporary folder left
 
 
+def test_a_candidate_row_trains_with_its_overrides_and_its_own_budget(
+    tiny_dataset, tmp_path, monkeypatch
+) -> None:
+    import benchmarks.table3 as t3
+
+    monkeypatch.setitem(t3.ROWS, "ppo-cand", t3.Row("ppo", overrides=("obs_symlog_scale=1000",),
+                                                    minutes=0.02))  # fmt: skip
+    runs, results = tmp_path / "runs", tmp_path / "results"
+    # the lane's own --minutes (an hour) is not the candidate's: the row's budget wins
+    kw = dict(threads=1, runs=runs, dataset=str(tiny_dataset), test=str(tiny_dataset),
+              results=results, preset="debug", attempts=1)  # fmt: skip
+    assert lane("ppo-cand", 1, minutes=60.0, **kw) == 0
+    filed = results / "runs/table3/ppo-cand-s1"
+    config = json.loads((filed / "config.json").read_text())
+    assert config["overrides"] == {"obs_symlog_scale": 1000.0}
+    assert config["config"]["obs_symlog_scale"] == 1000.0
+    assert json.loads((filed / "eval_test.json").read_text())["overrides"] == config["overrides"]
+    assert float(_rows(filed / "metrics.csv")[-1]["wall_s"]) < 60  # not the hour
+
+
 def test_the_random_row_is_its_evaluation_filed_with_the_baselines(tiny_dataset, tmp_path):
     results = tmp_path / "results"
     kw = dict(minutes=1, threads=1, runs=tmp_path / "runs", dataset=str(tiny_dataset),
