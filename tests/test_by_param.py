@@ -1,0 +1,43 @@
+"""`python -m benchmarks.by_param`: an evaluation's success split by module parameter."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks.by_param import by_param, groups, main, module_params
+
+
+def test_groups_are_quartiles_or_values() -> None:
+    g = groups(np.arange(8.0))
+    assert [(lo, hi, int(m.sum())) for lo, hi, m in g] == [
+        (0.0, 1.75, 2), (1.75, 3.5, 2), (3.5, 5.25, 2), (5.25, 7.0, 2)]  # fmt: skip
+    assert sum(int(m.sum()) for *_, m in g) == 8  # every value in one group only
+    g = groups(np.array([3.0, 4.0, 3.0, 6.0]))
+    assert [(lo, int(m.sum())) for lo, _, m in g] == [(3.0, 2), (4.0, 1), (6.0, 1)]
+
+
+def test_failures_gather_on_the_parameter_that_causes_them(tiny_dataset, tmp_path, capsys):
+    params = module_params(tiny_dataset)
+    tilt = {m: p["hole_tilt"] for m, p in params.items()}
+    assert all(t == pytest.approx(np.hypot(params[m]["hole_tilt_x"], params[m]["hole_tilt_y"]))
+               for m, t in tilt.items())  # fmt: skip
+    cut = float(np.median(list(tilt.values())))
+    per_module = {m: float(t <= cut) for m, t in tilt.items()}  # the tilted holes fail
+    rows = by_param(per_module, params, ["hole_tilt"])["hole_tilt"]
+    assert rows[0]["success"] == 1.0 and rows[-1]["success"] == 0.0
+    assert sum(r["modules"] for r in rows) == len(params)
+    out = tmp_path / "eval.json"
+    out.write_text(json.dumps({"per_module": per_module, "dataset_folder": str(tiny_dataset)}))
+    assert main([str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    (line,) = [x for x in lines if x.split()[0] == "hole_tilt"]
+    assert "100.0 %" in line and "  0.0 %" in line
+    assert "100.0 %" in lines[2] and "  0.0 %" in lines[2]  # the largest spread comes first
+    with pytest.raises(SystemExit):
+        main([str(out), "--param", "no_such"])
+    assert "--param 'no_such': the modules' parameters are" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="not in the dataset"):
+        by_param({"999999": 1.0}, params, None)
