@@ -447,12 +447,17 @@ def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
 def palette(variants: set[str]) -> dict[str, Any]:
     """One colour per variant of a report, distinct for up to 20 variants (tab20's colours,
     strong shades first), in table order, so every plot of the report draws a variant alike.
-    (A colour from a hash of the name let two variants share one.)"""
+    A "(sampled)" row is its variant's own run acting otherwise: it takes that variant's
+    colour rather than a slot of its own, which would leave 10 runs with sampled rows
+    sharing colours in their curves. (A colour from a hash of the name let two variants
+    share one.)"""
     import matplotlib
 
     cmap = matplotlib.colormaps["tab20"]
     order = [2 * i for i in range(10)] + [2 * i + 1 for i in range(10)]
-    return {v: cmap(order[i % 20]) for i, v in enumerate(_order(set(variants)))}
+    bases = _order({v.removesuffix(SAMPLED) for v in variants})
+    colour = {b: cmap(order[i % 20]) for i, b in enumerate(bases)}
+    return {v: colour[v.removesuffix(SAMPLED)] for v in variants}
 
 
 def _figure(ncols: int = 1) -> tuple[Any, Any]:
@@ -543,20 +548,22 @@ def plot_time_to_success(
         med = c.median_time_to_success_s
         label = f"{v}: median {med:.2f} s ({len(c.time_to_success_s)} successes)"
         # density, not counts: variants with more seeds or successes would hide the others
+        sampled = v.endswith(SAMPLED)  # its variant's colour, dotted
         ax.hist(
             c.time_to_success_s,
             bins=bins,
             density=True,
             histtype="step",
             lw=1.5,
+            ls=":" if sampled else "-",
             color=col,
             label=label,
         )
-        ax.axvline(med, color=col, ls="--", lw=1.5)
+        ax.axvline(med, color=col, ls=":" if sampled else "--", lw=1.5)
     if not have:
         ax.text(0.5, 0.5, f"no {split}-set evaluation", ha="center", transform=ax.transAxes)
     ax.set(xlabel="time to success (s)", ylabel="density of successful episodes (1/s)")
-    ax.set_title(f"Time to success on the {split} set (dashed: median)")
+    ax.set_title(f"Time to success on the {split} set (dashed: median; dotted: sampled)")
     ax.grid(alpha=0.3)
     if have:  # below the axes: the variants' names are long and would cover the curves
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize="small")

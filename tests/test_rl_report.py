@@ -380,3 +380,8 @@ def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
     assert set(colours) == names
     assert len({tuple(c) for c in colours.values()}) == len(names)
     assert palette(names) == colours
+    # a screening page: 14 runs, each with its sampled row; the runs' curves stay distinct
+    runs = {f"run-{i}" for i in range(14)}
+    colours = palette(runs | {f"{v} (sampled)" for v in runs})
+    assert len({tuple(colours[v]) for v in runs}) == 14
+    assert all(colours[f"{v} (sampled)"] == colours[v] for v in runs)
