@@ -143,6 +143,13 @@ def add_train_parser(
         help="widen the spawn ranges when the training episodes succeed at RATE or more "
         "(in (0, 1]; a success-gated curriculum instead of --curriculum-steps)",
     )
+    p.add_argument(
+        "--module-replay",
+        type=float,
+        metavar="SHARE",
+        help="draw SHARE (in (0, 1]) of the next modules weighted by their recent failure "
+        "rate instead of in turn (prioritized level replay; sim/module_replay.py)",
+    )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument(
         "--threads",
@@ -254,6 +261,14 @@ def train_main(
                     "spawn ranges follow either success or env steps"
                 )
         gate = {} if gated is None else {"curriculum_success": gated}
+        replay = getattr(args, "module_replay", None)
+        if replay is not None:
+            if not 0.0 < replay <= 1.0:
+                raise ValueError(
+                    f"--module-replay {replay}: give the share of modules drawn by their "
+                    "failures, in (0, 1], e.g. 0.5"
+                )
+            gate["module_replay"] = replay
         teacher = None
         demos = getattr(args, "demos", None)
         if demos is not None:

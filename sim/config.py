@@ -55,6 +55,9 @@ class TaskConfig:
     """Step of the success-gated curriculum, a fraction of the full spawn ranges."""
     curriculum_window: int = 256
     """Finished training episodes between two decisions of the success-gated curriculum."""
+    module_replay: float | None = None
+    """If set (in (0, 1]), a rotating env draws this share of its next modules weighted by
+    their recent failure rate instead of taking them in turn (sim/module_replay.py)."""
     friction_range: tuple[float, float] = (0.0, 1.0)
     """Static and dynamic friction coefficients are each drawn uniformly here at reset.
     MuJoCo has one Coulomb coefficient: it gets the dynamic one (see scene.py)."""
@@ -100,6 +103,8 @@ class TaskConfig:
             or 0.0 < self.curriculum_success <= 1.0,
             "0 < curriculum_increment <= 1": 0.0 < self.curriculum_increment <= 1.0,
             "curriculum_window >= 1": self.curriculum_window >= 1,
+            "module_replay is None or in (0, 1]": self.module_replay is None
+            or 0.0 < self.module_replay <= 1.0,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],
             "success_radius > 0": self.success_radius > 0,
         }

@@ -43,6 +43,7 @@ from sim.assets import ModuleAsset, check_physics, dataset_root, load_dataset
 from sim.batch import BatchSim
 from sim.config import TaskConfig
 from sim.curriculum import SuccessCurriculum
+from sim.module_replay import ModuleReplay
 from sim.physx_config import PhysxConfig
 
 
@@ -188,6 +189,16 @@ class PegInHoleVecEnv:
             )
         )
         """The success-gated curriculum (TaskConfig.curriculum_success), or None."""
+        self.module_replay: ModuleReplay | None = None
+        """Modules drawn by their failures (TaskConfig.module_replay), or None: in turn."""
+        if self.cfg.module_replay is not None:
+            if not self.rotate_modules:
+                raise ValueError(
+                    f"module_replay = {self.cfg.module_replay}: modules are replayed by their "
+                    f"failures only when envs take them in turns (rotate_modules, fewer envs "
+                    f"than the {len(modules)} modules; here {self.num_envs} envs)"
+                )
+            self.module_replay = ModuleReplay(len(modules), self.cfg.module_replay)
         self.unstable_count = 0
         """Episodes cut short because their physics went unstable."""
         self.rng = np.random.default_rng()
@@ -255,9 +266,10 @@ class PegInHoleVecEnv:
 
     def _rotate(self, idx: np.ndarray) -> None:
         """Envs idx hand their modules to the back of the queue and take the front ones."""
+        replay = self.module_replay
         for e in idx.tolist():
             self._queue.append(int(self.env_module[e]))
-            k = self._queue.pop(0)
+            k = self._queue.pop(0 if replay is None else replay.pick(self.rng, self._queue))
             self.env_module[e] = k
             self.sim.set_module(e, self.module_ids[k])
         self._use_modules()
@@ -423,6 +435,8 @@ class PegInHoleVecEnv:
         }
         if self.curriculum is not None:  # before the resets: they spawn at the new scale
             self.curriculum.update(done, success)
+        if self.module_replay is not None:  # before the resets: they pick by the new scores
+            self.module_replay.update(self.env_module, done, success)
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
@@ -454,6 +468,7 @@ class PegInHoleVecEnv:
             "env_module": self.env_module.copy(),
             "queue": np.array(self._queue, dtype=np.int64),
             **({} if self.curriculum is None else {"curriculum": self.curriculum.state()}),
+            **({} if self.module_replay is None else {"module_replay": self.module_replay.state()}),
         }
 
     def set_state(self, state: dict) -> None:
@@ -478,6 +493,11 @@ class PegInHoleVecEnv:
             raise ValueError(
                 "env state and env differ in their curriculum (success-gated or by env "
                 "steps): build the env with the same curriculum_success"
+            )
+        if ("module_replay" in state) != (self.module_replay is not None):
+            raise ValueError(
+                "env state and env differ in their module replay: build the env with the "
+                "same module_replay"
             )
         env_module = np.asarray(state["env_module"], dtype=np.int64)
         if env_module.shape != self.env_module.shape or (
@@ -508,6 +528,8 @@ class PegInHoleVecEnv:
         self.unstable_count = int(state["unstable_count"])
         if self.curriculum is not None:
             self.curriculum.load(state["curriculum"])
+        if self.module_replay is not None:
+            self.module_replay.load(state["module_replay"])
 
     def close(self) -> None:
         self.sim.close()
@@ -518,6 +540,7 @@ def train_config(
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
     curriculum_success: float | None = None,
+    module_replay: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -529,6 +552,8 @@ def train_config(
         config = replace(config, curriculum_steps=int(curriculum_steps))
     if curriculum_success is not None:
         config = replace(config, curriculum_success=float(curriculum_success)).validate()
+    if module_replay is not None:
+        config = replace(config, module_replay=float(module_replay)).validate()
     return root, config
 
 
@@ -540,6 +565,7 @@ def make_train_env(
     keep_physics: bool = False,
     engine: str = "mujoco",
     curriculum_success: float | None = None,
+    module_replay: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -549,7 +575,9 @@ def make_train_env(
     simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
     serves one env per module, so num_envs must cover the dataset's modules; for training
     on mujoco-warp the command line takes sim/warp_env.py's env, the task on the device)."""
-    root, config = train_config(dataset, curriculum_steps, keep_physics, curriculum_success)
+    root, config = train_config(
+        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
+    )
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
     )

@@ -61,6 +61,12 @@ class WarpTorchVecEnv:
         device: str | None = None,
         check_every: int = 64,
     ) -> None:
+        if config is not None and config.module_replay is not None:
+            raise ValueError(
+                "module_replay (--module-replay): modules replayed by their failures run in "
+                "the host env only (PegInHoleVecEnv: --sim mujoco); the env on the device "
+                "takes its modules in turn"
+            )
         if config is not None and config.curriculum_success is not None:
             raise ValueError(
                 "curriculum_success (--curriculum-success): the success-gated curriculum "
@@ -409,10 +415,13 @@ def make_device_train_env(
     keep_physics: bool = False,
     engine: str = "mujoco-warp",
     curriculum_success: float | None = None,
+    module_replay: float | None = None,
 ) -> WarpTorchVecEnv:
     """sim.env.make_train_env's env on the device: the same task, modules in turns."""
     if engine != "mujoco-warp":
         raise ValueError(f"engine = {engine!r}: the env on the device runs on mujoco-warp")
     # WarpTorchVecEnv refuses a success-gated curriculum: it runs in the host env only
-    root, config = train_config(dataset, curriculum_steps, keep_physics, curriculum_success)
+    root, config = train_config(
+        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
+    )
     return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
