@@ -3,16 +3,14 @@
 from __future__ import annotations
 
 import csv
-import subprocess
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from sim.config import TaskConfig
 from sim.curriculum import SuccessCurriculum
+from tests.test_cli import run as cli
 from tests.test_sim_common import make_env, quiet, sim_dataset
 
 
@@ -100,27 +98,20 @@ def test_the_env_on_the_device_refuses_it() -> None:
         make_device_train_env(str(sim_dataset()), 2, 0, curriculum_success=0.8)
 
 
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    root = Path(__file__).resolve().parents[1]
-    return subprocess.run(
-        [sys.executable, "-m", "cli", *args], capture_output=True, text=True, cwd=root
-    )
-
-
 def test_train_logs_the_level_and_refuses_bad_rates(tmp_path) -> None:
     base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
             "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
-    p = _cli(*base, "--curriculum-success", "0.5", "--out", str(tmp_path / "run"))
+    p = cli(*base, "--curriculum-success", "0.5", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
     rows = list(csv.DictReader(open(tmp_path / "run" / "metrics.csv")))
     assert rows and all(0.0 <= float(r["curriculum_scale"]) <= 1.0 for r in rows)
-    p = _cli(*base, "--curriculum-success", "1.5", "--out", str(tmp_path / "bad"))
+    p = cli(*base, "--curriculum-success", "1.5", "--out", str(tmp_path / "bad"))
     assert p.returncode != 0 and "--curriculum-success 1.5: give a success rate in (0, 1]" in (
         p.stdout + p.stderr
     )
-    p = _cli(*base, "--curriculum-success", "0.8", "--curriculum-steps", "100",
+    p = cli(*base, "--curriculum-success", "0.8", "--curriculum-steps", "100",
              "--out", str(tmp_path / "both"))  # fmt: skip
     assert p.returncode != 0 and "exclude each other" in p.stdout + p.stderr
     # a resume must keep the curriculum: the run's env options are checked
-    p = _cli(*base, "--resume", "--out", str(tmp_path / "run"))
+    p = cli(*base, "--resume", "--out", str(tmp_path / "run"))
     assert p.returncode != 0 and "curriculum_success" in p.stdout + p.stderr

@@ -3,16 +3,14 @@ bad input."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from sim.config import TaskConfig
 from sim.module_replay import ModuleReplay
+from tests.test_cli import run as cli
 from tests.test_sim_common import make_env, quiet, sim_dataset
 
 
@@ -84,19 +82,12 @@ def test_the_env_on_the_device_refuses_it() -> None:
         make_device_train_env(str(sim_dataset()), 2, 0, module_replay=0.5)
 
 
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    root = Path(__file__).resolve().parents[1]
-    return subprocess.run(
-        [sys.executable, "-m", "cli", *args], capture_output=True, text=True, cwd=root
-    )
-
-
 def test_train_takes_it_refuses_bad_shares_and_keeps_it_on_resume(tmp_path) -> None:
     base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
             "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
-    p = _cli(*base, "--module-replay", "0.5", "--out", str(tmp_path / "run"))
+    p = cli(*base, "--module-replay", "0.5", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
-    p = _cli(*base, "--module-replay", "1.5", "--out", str(tmp_path / "bad"))
+    p = cli(*base, "--module-replay", "1.5", "--out", str(tmp_path / "bad"))
     assert p.returncode != 0 and "--module-replay 1.5: give the share" in p.stdout + p.stderr
-    p = _cli(*base, "--resume", "--out", str(tmp_path / "run"))
+    p = cli(*base, "--resume", "--out", str(tmp_path / "run"))
     assert p.returncode != 0 and "module_replay" in p.stdout + p.stderr
