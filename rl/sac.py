@@ -1,5 +1,6 @@
 """Soft Actor-Critic (Haarnoja et al. 2018): twin Q, Polyak-averaged targets, fixed or
-learned entropy temperature, a replay buffer and a uniform-random warm-up. One file.
+learned entropy temperature, a replay buffer and a uniform-random warm-up. One file; its
+optional n-step returns (`n_step`) keep their window in rl/nstep.py.
 
 With a teacher (`set_teacher`, e.g. the scripted expert: `assetgen train --demos scripted`)
 the warm-up is played by the teacher instead (its episodes are the demonstrations the buffer
@@ -25,6 +26,7 @@ import numpy as np
 import torch
 
 from rl.nets import QNetwork, SquashedGaussianActor, check_finite
+from rl.nstep import NStepWindow
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,9 @@ class SACConfig:
     """Entropy target when learning alpha (None: -act_dim)."""
     reward_scale: float = 1.0
     """Rewards are multiplied by this before learning (logged returns are not)."""
+    n_step: int = 1
+    """Rewards summed over this many steps before the critics' targets bootstrap (n-step
+    returns, rl/nstep.py; 1: the one-step target of SAC)."""
     steps_per_iteration: int = 64
     """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
     bc_weight: float = 0.5
@@ -97,6 +102,7 @@ class SACConfig:
             "gradient_steps >= 0": self.gradient_steps >= 0,
             "entropy_coef > 0": self.entropy_coef > 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
+            "n_step >= 1": self.n_step >= 1,
             "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
             "obs_symlog_scale is None or > 0": (
                 self.obs_symlog_scale is None or self.obs_symlog_scale > 0
@@ -117,11 +123,12 @@ def soft_target(
     next_q1: torch.Tensor,
     next_q2: torch.Tensor,
     next_logp: torch.Tensor,
-    gamma: float,
+    gamma: float | torch.Tensor,
     alpha: float | torch.Tensor,
 ) -> torch.Tensor:
     """The soft Bellman target, all inputs (B,), a' ~ pi(. | s'):
-    y = r + gamma (1 - terminated) (min(Q1'(s', a'), Q2'(s', a')) - alpha log pi(a' | s'))."""
+    y = r + gamma (1 - terminated) (min(Q1'(s', a'), Q2'(s', a')) - alpha log pi(a' | s')).
+    With n-step returns r is the n-step return and gamma the transition's own gamma^k."""
     soft_v = torch.min(next_q1, next_q2) - alpha * next_logp
     return reward + gamma * (1.0 - terminated) * soft_v
 
@@ -157,12 +164,15 @@ class ReplayBuffer:
         act_dim: int,
         device: torch.device,
         teacher: bool = False,
+        discount: bool = False,
     ) -> None:
         self.capacity, self.device = capacity, device
         self.shapes = {"obs": (obs_dim,), "action": (act_dim,), "reward": (),
                        "next_obs": (obs_dim,), "terminated": ()}  # fmt: skip
         if teacher:  # the teacher's action at obs, for the BC term
             self.shapes["teacher_action"] = (act_dim,)
+        if discount:  # gamma^k of an n-step transition, k its number of rewards
+            self.shapes["discount"] = ()
         self.data: dict[str, torch.Tensor] = {}
         self.pos = 0
         self.size = 0
@@ -251,7 +261,10 @@ class SAC:
             [*self.q1.parameters(), *self.q2.parameters()], lr=lr, foreach=True
         )
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=lr, foreach=True)
-        self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim, act_dim, self.device)
+        self.buffer = ReplayBuffer(
+            cfg.buffer_size, obs_dim, act_dim, self.device, discount=cfg.n_step > 1
+        )
+        self.nstep = NStepWindow(cfg.n_step, cfg.gamma, num_envs) if cfg.n_step > 1 else None
         self.teacher: Callable[[np.ndarray], np.ndarray] | None = None
         self._teacher_action: torch.Tensor | None = None
         self.steps_per_iteration = cfg.steps_per_iteration
@@ -278,7 +291,12 @@ class SAC:
         self.teacher = teacher
         cfg = self.cfg
         self.buffer = ReplayBuffer(
-            cfg.buffer_size, self.buffer.shapes["obs"][0], self.act_dim, self.device, True
+            cfg.buffer_size,
+            self.buffer.shapes["obs"][0],
+            self.act_dim,
+            self.device,
+            True,
+            discount=cfg.n_step > 1,
         )
 
     def bc_weight(self) -> float:
@@ -328,14 +346,19 @@ class SAC:
         done = np.asarray(terminated) | np.asarray(truncated)
         nxt = np.where(done[:, None], info["final_obs"], next_obs)
         assert self._obs is not None and self._action is not None, "call act() first"
-        self.buffer.add(
-            obs=self._obs,
-            action=self._action,
-            reward=self._t(reward) * self.cfg.reward_scale,
-            next_obs=self._t(nxt),
-            terminated=self._t(terminated),
+        at_obs = {
+            "obs": self._obs,
+            "action": self._action,
             **({} if self._teacher_action is None else {"teacher_action": self._teacher_action}),
-        )
+        }
+        r, term = self._t(reward) * self.cfg.reward_scale, self._t(terminated)
+        if self.nstep is None:
+            self.buffer.add(**at_obs, reward=r, next_obs=self._t(nxt), terminated=term)
+        else:
+            done_t = torch.as_tensor(done, device=self.device)
+            batch = self.nstep.push(at_obs, r, self._t(nxt), term, done_t)
+            if batch is not None:
+                self.buffer.add(**batch)
         self.env_steps += len(reward)
         if self.env_steps < max(self.cfg.warmup_steps, self.cfg.batch_size):
             return
@@ -356,7 +379,7 @@ class SAC:
                 self.q1_target(b["next_obs"], next_a),
                 self.q2_target(b["next_obs"], next_a),
                 next_logp,
-                cfg.gamma,
+                b.get("discount", cfg.gamma),
                 alpha,
             )
         # L_Q = E[(Q1(s, a) - y)^2 + (Q2(s, a) - y)^2]
@@ -459,7 +482,9 @@ class SAC:
         tensors = {
             "log_alpha": self.log_alpha.detach(),
             **{f"buffer/{k}": v for k, v in data.items()},
-        }
+            **({} if self.nstep is None else
+               {f"nstep/{k}": v for k, v in self.nstep.state().items()}),
+        }  # fmt: skip
         return tensors, {
             "buffer": counters,
             "env_steps": self.env_steps,
@@ -472,5 +497,8 @@ class SAC:
             self.log_alpha.copy_(tensors["log_alpha"])
         data = {k.removeprefix("buffer/"): v for k, v in tensors.items() if k.startswith("buffer/")}
         self.buffer.load(data, values["buffer"])
+        if self.nstep is not None:
+            window = {k[6:]: v for k, v in tensors.items() if k.startswith("nstep/")}
+            self.nstep.load_state(window)
         self.env_steps, self.grad_steps = values["env_steps"], values["grad_steps"]
         self._credit = values["credit"]

@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from rl.nets import ActorCritic, QNetwork, RunningNorm, SquashedGaussianActor, SymlogObs
+from rl.nstep import NStepWindow
 from rl.ppo import PPO, PPOConfig, bounds_loss, gae
 from rl.random_agent import RandomAgent
 from rl.runner import train
@@ -147,6 +148,78 @@ def test_sac_stores_final_obs_and_terminal_flags() -> None:
     no = np.zeros(3, bool)
     agent.process_step(nxt, np.zeros(3), no, no, {"final_obs": final})
     assert agent.buffer.size == 5 and agent.buffer.pos == 1  # the ring wrapped
+
+
+def test_nstep_window_hand_computed() -> None:
+    """n = 3, gamma 0.5, two envs; env 1 terminates at step 1, env 0 is truncated at step 3.
+    A transition's return sums gamma^j r_{t+j} until n rewards or its episode's end."""
+    w = NStepWindow(3, 0.5, 2)
+    no = torch.zeros(2, dtype=torch.bool)
+
+    def push(t, r, term=(0.0, 0.0), done=no):
+        fields = {"obs": torch.full((2, 1), float(t)), "action": torch.tensor([[0.0], [1.0]])}
+        nxt = torch.full((2, 1), 100.0 + t)
+        return w.push(fields, torch.tensor(r), nxt, torch.tensor(term), done)
+
+    assert push(0, [1.0, 10.0]) is None
+    out = push(1, [2.0, 20.0], (0.0, 1.0), torch.tensor([False, True]))
+    # env 1, steps 0 and 1: 10 + 0.5 * 20 = 20 (gamma^2), 20 (gamma), terminal
+    np.testing.assert_allclose(out["reward"], [20.0, 20.0])
+    np.testing.assert_allclose(out["discount"], [0.25, 0.5])
+    np.testing.assert_allclose(out["obs"][:, 0], [0.0, 1.0])
+    np.testing.assert_allclose(out["terminated"], [1.0, 1.0])
+    np.testing.assert_allclose(out["next_obs"][:, 0], [101.0, 101.0])
+    out = push(2, [4.0, 40.0])  # env 0, step 0 has its three rewards: 1 + 1 + 1
+    np.testing.assert_allclose(out["reward"], [3.0])
+    np.testing.assert_allclose(out["discount"], [0.125])
+    np.testing.assert_allclose(out["action"][:, 0], [0.0])
+    saved = w.state()
+    out = push(3, [8.0, 80.0], (0.0, 0.0), torch.tensor([True, False]))
+    # env 0 truncated: steps 1 (2 + 2 + 2), 2 (4 + 4) and 3 (8) close, bootstrapped
+    np.testing.assert_allclose(out["reward"], [6.0, 8.0, 8.0])
+    np.testing.assert_allclose(out["discount"], [0.125, 0.25, 0.5])
+    np.testing.assert_allclose(out["obs"][:, 0], [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(out["terminated"], [0.0, 0.0, 0.0])
+    # env 1's new episode (steps 2 and 3) waits; a window restored from before step 3
+    # gives the same step 3
+    restored = NStepWindow(3, 0.5, 2)
+    restored.load_state(saved)
+    w = restored
+    again = push(3, [8.0, 80.0], (0.0, 0.0), torch.tensor([True, False]))
+    for k in out:
+        assert torch.equal(out[k], again[k]), k
+    out = push(4, [16.0, 160.0])  # env 1's step 2 completes: 40 + 40 + 40
+    np.testing.assert_allclose(out["reward"], [120.0])
+    np.testing.assert_allclose(out["obs"][:, 0], [2.0])
+    with pytest.raises(ValueError, match="n >= 1"):
+        NStepWindow(0, 0.5, 2)
+
+
+def test_sac_nstep_stores_discounts_and_the_target_uses_them() -> None:
+    cfg = SACConfig(hidden=(4,), batch_size=2, buffer_size=10, warmup_steps=100, n_step=2,
+                    gamma=0.9)  # fmt: skip
+    agent = SAC(2, 1, 2, cfg)
+    obs, nxt, final = (np.full((2, 2), v, np.float32) for v in (0.0, 1.0, 7.0))
+    no = np.zeros(2, bool)
+    agent.act(obs)
+    agent.process_step(nxt, np.array([1.0, 2.0]), no, no, {"final_obs": final})
+    assert agent.buffer.size == 0  # both wait for their second reward
+    agent.act(obs)
+    term = np.array([True, False])
+    agent.process_step(nxt, np.array([3.0, 4.0]), term, no, {"final_obs": final})
+    d, n = agent.buffer.data, agent.buffer.size
+    # env 0 ended: both its steps close (1 + 0.9 * 3, then 3); env 1's first has two rewards
+    np.testing.assert_allclose(d["reward"][:n], [1.0 + 0.9 * 3.0, 2.0 + 0.9 * 4.0, 3.0],
+                               rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(d["discount"][:n], [0.81, 0.81, 0.9], rtol=1e-6)
+    np.testing.assert_allclose(d["terminated"][:n], [1.0, 0.0, 1.0])
+    # the target reads each transition's own discount
+    y = soft_target(torch.tensor([1.0, 1.0]), torch.zeros(2), torch.ones(2), torch.ones(2),
+                    torch.zeros(2), torch.tensor([0.81, 0.9]), 0.2)  # fmt: skip
+    np.testing.assert_allclose(y.numpy(), [1.81, 1.9], rtol=1e-6)
+    assert "discount" not in SAC(2, 1, 2, replace(cfg, n_step=1)).buffer.shapes
+    with pytest.raises(ValueError, match="n_step >= 1"):
+        replace(cfg, n_step=0).validate()
 
 
 def test_running_norm_matches_numpy() -> None:

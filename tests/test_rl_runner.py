@@ -6,6 +6,7 @@ import argparse
 import csv
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -30,6 +31,7 @@ SAC_SETUP = Setup(
               steps_per_iteration=8, learn_entropy=True, gradient_steps=1.0),
     4, 256, 64,
 )  # fmt: skip
+SAC_N3_SETUP = Setup(replace(SAC_SETUP.config, n_step=3), 4, 256, 64)
 
 
 class Interrupt:
@@ -77,10 +79,12 @@ def _train(algo, env, setup, out, **kw):
 @pytest.mark.parametrize(
     ("algo", "env_cls", "stack"),
     [("ppo", StatefulToyEnv, 1), ("ppo", ToyEnv, 2), ("sac", StatefulToyEnv, 2),
-     ("sac", ToyEnv, 1)],
+     ("sac", ToyEnv, 1), ("sac-n3", ToyEnv, 1)],
 )  # fmt: skip
 def test_interrupted_and_resumed_run_matches_uninterrupted(algo, env_cls, stack, tmp_path):
-    setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
+    """... also with n-step returns, whose open steps the checkpoint must carry."""
+    setup = {"ppo": PPO_SETUP, "sac": SAC_SETUP, "sac-n3": SAC_N3_SETUP}[algo]
+    algo = algo.split("-")[0]
     full = _train(algo, env_cls(4), setup, tmp_path / "full", stack=stack, steps=256)
     assert full["status"] == "done" and full["iterations"] == 8
     # killed in iteration 4 (steps 25-32): the checkpoint of iteration 2 is what survives
