@@ -479,6 +479,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             reset=reset,
             labels=hooks.labels(base) if hooks.labels is not None else None,
             recorder=recorder,
+            live=getattr(base, "set_live", None),
         )
     except ValueError as e:
         return _error(str(e))

@@ -54,6 +54,7 @@ def evaluate(
     reset: Callable[[np.ndarray], None] | None = None,
     labels: list[str] | None = None,
     recorder: Recorder | None = None,
+    live: Callable[[np.ndarray | None], None] | None = None,
 ) -> dict[str, Any]:
     """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
 
@@ -63,7 +64,9 @@ def evaluate(
     an all-True mask after env.reset and with terminated | truncated after every step, so
     the policy's state is carried through each episode and restarted at its end. `labels`
     (N,) names what each env plays (its module) for `per_module`; `recorder` sees every step
-    (`--record`). Returns a JSON-ready dict:
+    (`--record`). `live(mask)` (the env's set_live, when it has one) is told before every
+    step which envs still have episodes to play, so the simulator may skip the others.
+    Returns a JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
         successes                  count
@@ -76,7 +79,7 @@ def evaluate(
                                    by unstable physics (count); when info reports them
         per_env_success_rate       list (N,): success rate of each env
         per_module                 {label: success rate}, with `labels`
-        env_steps, seconds         work done
+        env_steps, seconds         vector steps × envs (skipped envs included), wall time
     """
     if episodes_per_env < 1:
         raise ValueError(f"episodes_per_env = {episodes_per_env}: need at least 1")
@@ -95,34 +98,40 @@ def evaluate(
         reset(np.ones(n, dtype=bool))
     if recorder is not None:
         recorder.begin(env)
-    while (counts < episodes_per_env).any():
-        if max_steps is not None and steps >= max_steps:
-            raise RuntimeError(
-                f"evaluation took more than max_steps = {max_steps} vector steps with "
-                f"{int((counts < episodes_per_env).sum())} envs short of {episodes_per_env} "
-                "episodes: do the env's episodes end (truncation)?"
-            )
-        obs, reward, terminated, truncated, info = env.step(policy_fn(obs))
-        steps += 1
-        done = np.asarray(terminated) | np.asarray(truncated)
-        live = counts < episodes_per_env
-        if reset is not None:
-            reset(done)
-        if recorder is not None:
-            recorder.step(env, np.asarray(reward), done, info, live, counts.copy())
-        for i in np.flatnonzero(done & live):
-            ok = bool(info["success"][i])
-            wins[i] += ok
-            returns.append(float(info["episode_return"][i]))
-            lengths.append(int(info["episode_length"][i]))
-            if ok:
-                tts.append(float(info["time_to_success"][i]))
-            truncations += bool(truncated[i]) and not bool(terminated[i])
-            failures += bool(info["failure"][i]) if "failure" in info else 0
-            unstable += bool(info["unstable"][i]) if "unstable" in info else 0
-            counts[i] += 1
-            if progress is not None:
-                progress(len(returns), total)
+    try:
+        while (counts < episodes_per_env).any():
+            if max_steps is not None and steps >= max_steps:
+                raise RuntimeError(
+                    f"evaluation took more than max_steps = {max_steps} vector steps with "
+                    f"{int((counts < episodes_per_env).sum())} envs short of {episodes_per_env} "
+                    "episodes: do the env's episodes end (truncation)?"
+                )
+            if live is not None:
+                live(counts < episodes_per_env)
+            obs, reward, terminated, truncated, info = env.step(policy_fn(obs))
+            steps += 1
+            done = np.asarray(terminated) | np.asarray(truncated)
+            counting = counts < episodes_per_env
+            if reset is not None:
+                reset(done)
+            if recorder is not None:
+                recorder.step(env, np.asarray(reward), done, info, counting, counts.copy())
+            for i in np.flatnonzero(done & counting):
+                ok = bool(info["success"][i])
+                wins[i] += ok
+                returns.append(float(info["episode_return"][i]))
+                lengths.append(int(info["episode_length"][i]))
+                if ok:
+                    tts.append(float(info["time_to_success"][i]))
+                truncations += bool(truncated[i]) and not bool(terminated[i])
+                failures += bool(info["failure"][i]) if "failure" in info else 0
+                unstable += bool(info["unstable"][i]) if "unstable" in info else 0
+                counts[i] += 1
+                if progress is not None:
+                    progress(len(returns), total)
+    finally:
+        if live is not None:
+            live(None)  # the env steps every env again
     return {
         "episodes": total,
         "success_rate": float(wins.sum() / total),

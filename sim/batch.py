@@ -282,11 +282,16 @@ class BatchSim(PegStateViews):
 
     # ------------------------------------------------------------------ stepping
 
-    def step(self, velocity: np.ndarray) -> np.ndarray:
+    skips_idle = True
+    """`step(velocity, live)` leaves the shards without a live env unstepped (set_live)."""
+
+    def step(self, velocity: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
         """Advance every env by one control step at the commanded velocity.
 
         velocity: (num_envs, 6) target linear (m/s) and angular (rad/s) velocity of the peg's
-        bottom-face centre in the module frame. Returns (num_envs,) bool: envs whose
+        bottom-face centre in the module frame. live: (num_envs,) bool or None (all): a shard
+        none of whose envs is live is not stepped (its states, time included, stay as they
+        were, and its envs are not flagged). Returns (num_envs,) bool: envs whose
         physics broke down: a non-finite state, or a shard that MuJoCo stopped stepping
         after a warning (seen as a time that did not advance; every env of it is flagged,
         as none of them moved), or a runaway peg (faster than `runaway_speed`).
@@ -295,18 +300,39 @@ class BatchSim(PegStateViews):
         # between the rollout calls
         K.scatter(self.state, self._layout, velocity, self._ss_flat, self._ctrl)
         t0 = self.shard_state[:, 0].copy()
-        self._rollout.rollout(
-            self.models,
-            self.datas,
-            self.shard_state,
-            self._ctrl,
-            nstep=self.task.physics.substeps,
-            state=self._out,
-            skip_checks=True,
-        )
-        self.shard_state[:] = self._out[:, -1]
+        busy = None
+        if live is not None and not live.all():
+            busy = np.zeros(len(self.models), dtype=bool)
+            busy[self.shard_of[live]] = True
+        if busy is None or busy.all():
+            self._rollout.rollout(
+                self.models,
+                self.datas,
+                self.shard_state,
+                self._ctrl,
+                nstep=self.task.physics.substeps,
+                state=self._out,
+                skip_checks=True,
+            )
+            self.shard_state[:] = self._out[:, -1]
+        elif busy.any():
+            # an evaluation's tail: only the shards that still hold counted episodes
+            sel = np.flatnonzero(busy)
+            out = self._out[: len(sel)]
+            self._rollout.rollout(
+                [self.models[i] for i in sel],
+                self.datas,
+                self.shard_state[sel],
+                self._ctrl[sel],
+                nstep=self.task.physics.substeps,
+                state=out,
+                skip_checks=True,
+            )
+            self.shard_state[sel] = out[:, -1]
         unstable = np.empty(self.num_envs, dtype=bool)
         K.gather(self._ss_flat, self._layout, t0, self._checks, self.state, unstable)
+        if busy is not None:
+            unstable &= busy[self.shard_of]  # an unstepped shard's time did not advance
         return unstable
 
     def shard_control(self, velocity: np.ndarray) -> np.ndarray:

@@ -212,6 +212,7 @@ class PegInHoleVecEnv:
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
         self._step_params = K.StepParams.of(cfg)
         self._no_noise = np.zeros((n, 6), dtype=np.float32)
+        self._live: np.ndarray | None = None
 
     # ------------------------------------------------------------------ helpers
 
@@ -365,6 +366,38 @@ class PegInHoleVecEnv:
         self._obs = self._observe(np.arange(self.num_envs))
         return self._obs.copy()
 
+    PARK_HEIGHT = 0.3
+    """How far above its hole's entrance (m, along the entrance's axis) an env that no longer
+    counts holds its peg: out of contact, it costs its shard almost nothing to step."""
+
+    def set_live(self, live: np.ndarray | None) -> None:
+        """Envs whose episodes still count (num_envs,) bool, or None (all): an evaluation's
+        envs that have played all their attempts are let go. With MuJoCo's BatchSim, an env
+        that stops counting is parked: its peg held at rest PARK_HEIGHT above its hole, its
+        commands zero, its episode never ending, and a shard with no live env is not stepped
+        at all; an env that counts again (and every parked env at None) starts a new
+        episode. The draws of a run that parks envs differ from one that does not. Other
+        engines ignore it."""
+        if not getattr(self.sim, "skips_idle", False):
+            return
+        old = self._live if self._live is not None else np.ones(self.num_envs, dtype=bool)
+        if live is None:
+            new = np.ones(self.num_envs, dtype=bool)
+        else:
+            new = np.asarray(live, dtype=bool)
+            if new.shape != (self.num_envs,):
+                raise ValueError(f"live must have shape ({self.num_envs},), got {new.shape}")
+        park = np.flatnonzero(old & ~new)
+        if len(park):
+            e = self.entrance[park]
+            self.sim.set_pose(park, e[:, :3, 3] + self.PARK_HEIGHT * e[:, :3, 2],
+                              self._entrance_quat[park])  # fmt: skip
+        wake = np.flatnonzero(~old & new)
+        if len(wake):
+            self._reset_envs(wake)
+            self._obs[wake] = self._observe(wake)
+        self._live = None if new.all() else new.copy()
+
     def _check_actions(self, actions: np.ndarray) -> np.ndarray:
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, T.ACT_DIM):
@@ -398,7 +431,12 @@ class PegInHoleVecEnv:
         if self._act_turn is not None:
             velocity[:, :3] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, :3])
             velocity[:, 3:] = np.einsum("nij,nj->ni", self._act_turn, velocity[:, 3:])
-        unstable = self.sim.step(velocity)
+        live = self._live
+        if live is None:
+            unstable = self.sim.step(velocity)
+        else:
+            velocity[~live] = 0.0  # parked pegs stay where they are
+            unstable = self.sim.step(velocity, live)
         self.global_step += n
         self._steps += 1
         obs = np.empty((n, T.OBS_DIM), dtype=np.float32)
@@ -417,8 +455,14 @@ class PegInHoleVecEnv:
         )
         out = K.Outcome(obs=obs, reward=reward, success=success, failure=failure)
         K.score(state, unstable, noise, frames, episode, self._step_params, out)
+        if live is not None:  # a parked env's episode never ends
+            success &= live
+            failure &= live
+            unstable &= live
         terminated = success | failure
         truncated = ~terminated & ((self._steps >= cfg.max_steps) | unstable)
+        if live is not None:
+            truncated &= live
         done = terminated | truncated
         if unstable.any():
             self.unstable_count += int(unstable.sum())
@@ -646,6 +690,9 @@ def make_eval_env(
         "physics_version": physics_from_record(ds.info.get("physics"))[0],
         "timestep": env.cfg.physics.timestep,
         "engine": engine,
+        # envs done with their attempts: parked and skipped (set_live), or stepped to the end
+        # as before (evaluation files without this field); the two draw differently
+        "finished_envs": "parked" if getattr(env.sim, "skips_idle", False) else "stepped",
     }
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules

@@ -39,6 +39,7 @@ def test_shipped_policy_evaluates(folder: Path, tmp_path: Path) -> None:
     assert main(argv) == 0
     res = json.loads(out.read_text())
     assert res["episodes"] == 4 and res["policy"] == "deterministic"
+    assert res["finished_envs"] == "parked"
     # the shipped evaluation files are of the real splits, under the paper's protocol; a
     # robustness file (scaled noise, a tighter clearance) says so in its name
     evals = sorted(folder.glob("eval_*.json"))

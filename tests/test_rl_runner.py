@@ -188,6 +188,25 @@ def test_evaluate_counts_exact_episodes_per_env() -> None:
         evaluate(lambda o: np.zeros((len(o), 2)), ToyEnv(2, max_steps=50), 1, max_steps=3)
 
 
+def test_evaluate_tells_the_env_which_envs_still_count() -> None:
+    """Before each step `live` gets the envs short of their episodes (env 0's episodes end
+    at once, env 1's take 5 steps), and None when the evaluation ends."""
+    env = ToyEnv(2, max_steps=5)
+    seen: list = []
+
+    def policy(o: np.ndarray) -> np.ndarray:
+        env.pos[0] = env.goal[0]  # env 0 sits on its goal: every episode a one-step success
+        return np.zeros((len(o), 2))
+
+    res = evaluate(
+        policy, env, 3, seed=0, live=lambda m: seen.append(None if m is None else m.copy())
+    )
+    assert res["per_env_success_rate"][0] == 1.0 and res["env_steps"] == 2 * 15
+    assert seen[-1] is None and len(seen) == 16
+    assert [m.tolist() for m in seen[:4]] == [[True, True]] * 3 + [[False, True]]
+    assert all(m.tolist() == [False, True] for m in seen[3:15])
+
+
 def test_commands(tmp_path, capsys) -> None:
     made = []
 

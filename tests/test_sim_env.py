@@ -191,6 +191,48 @@ def test_unstable_env_is_reset_and_reported_without_stopping_the_batch(shard_siz
     assert np.isfinite(obs).all()
 
 
+def test_envs_that_no_longer_count_are_parked_and_their_shards_skipped() -> None:
+    """An evaluation's tail, in shards of 2. Envs 0, 1 (one shard) stop counting: parked
+    above their holes, that shard is not stepped at all; envs 2, 3 move exactly as in a twin
+    that steps every env (shards are separate MuJoCo models). Then env 3 stops counting
+    too: its peg hangs at rest out of contact while env 2 plays on, and no parked episode
+    ever ends. None gives the parked envs new episodes."""
+    cfg = replace(quiet(), max_steps=3)
+    env, twin = make_env(4, cfg, shard_size=2), make_env(4, cfg, shard_size=2)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    act = np.random.default_rng(1).uniform(-1, 1, (4, 6))
+    env.set_live(np.array([False, False, True, True]))
+    parked = env.sim.state[:2].copy()
+    up = env.entrance[:2, :3, 3] + env.PARK_HEIGHT * env.entrance[:2, :3, 2]
+    assert np.allclose(parked[:, 1:4], up) and not parked[:, 8:].any()
+    for _ in range(2):
+        obs, _, term, trunc, info = env.step(act)
+        ref, *_ = twin.step(act)
+        # not stepped: the time stands, the pose moves by no more than the shard offset's
+        # rounding (x + spacing - spacing)
+        assert np.array_equal(env.sim.state[:2, 0], parked[:, 0])
+        assert np.allclose(env.sim.state[:2], parked, rtol=0.0, atol=1e-12)
+        assert np.array_equal(obs[2:], ref[2:])
+        assert np.array_equal(env.sim.state[2:], twin.sim.state[2:])
+    env.set_live(np.array([False, False, True, False]))
+    for _ in range(5):  # past max_steps
+        _, _, term, trunc, info = env.step(act)
+        assert not (term | trunc)[[0, 1, 3]].any() and not info["unstable"].any()
+    assert trunc[2] or term[2] or info["episode_length"][2] < 3  # env 2 goes on as before
+    hang = env.entrance[3, :3, 3] + env.PARK_HEIGHT * env.entrance[3, :3, 2]
+    assert np.linalg.norm(env.sim.state[3, 1:4] - hang) < 1e-3
+    assert len(env.sim.contacts(3)[0]) == 0
+    with pytest.raises(ValueError, match=r"live must have shape \(4,\)"):
+        env.set_live(np.ones(3, dtype=bool))
+    env.set_live(None)
+    spawned = env.sim.state[[0, 1, 3], 1:4]
+    assert (np.linalg.norm(spawned - np.vstack([up, hang]), axis=1) > 1e-3).all()  # new spawns
+    t = env.sim.state[:, 0].copy()
+    _, _, _, _, info = env.step(act)
+    assert (env.sim.state[:, 0] > t).all() and (info["episode_length"][[0, 1, 3]] == 1).all()
+
+
 def test_runaway_peg_is_reset_and_reported() -> None:
     """A finite but runaway state (a solver blow-up) is unstable too: left alone it would
     feed km-scale observations to the learner."""
