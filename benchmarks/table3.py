@@ -4,8 +4,8 @@
     python -m benchmarks.table3 --next            # the lanes still to do, one after another
     python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
 
-ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog:
-the best teacher-free candidate screened, 120 minutes). A trained row runs
+ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog,
+sac-symlog-n3: the best teacher-free candidates screened, 120 minutes). A trained row runs
 
     assetgen train --algo ALGO [--stack 10] [--set FIELD=VALUE] --dataset train --minutes M \\
         --seed S --threads T --out runs/table3/ROW-sS
@@ -62,10 +62,11 @@ ROWS: dict[str, Row] = {
     "sac-stack": Row("sac", 10),
     "dreamer": Row("dreamer"),
     "sac-symlog": Row("sac", overrides=("obs_symlog_scale=1000",), minutes=120.0),
+    "sac-symlog-n3": Row("sac", overrides=("obs_symlog_scale=1000", "n_step=3"), minutes=120.0),
 }
 """The paper's rows ("-stack": its STACK variant, the last 10 observations), then the best
-teacher-free candidate of the screening (docs/results/README.md), with its overrides and its
-two hours."""
+teacher-free candidates of the screening (docs/results/README.md), with their overrides and
+their two hours: SAC on symlog observations, then the same with 3-step returns."""
 
 
 def run_dir(runs: Path, row: str, seed: int) -> Path:
@@ -212,10 +213,11 @@ def next_lanes(runs: Path, results: Path, run_lane, limit: int | None = None) ->
 def plan(runs: Path, results: Path = RESULTS) -> str:
     """One line per row and seed: its stages, done (+), begun (~) or still to do (-)."""
     lines = []
+    width = max(map(len, ROWS))
     for row in ROWS:
         for seed in SEEDS:
             marks = " ".join(m + name for name, m in stages(row, seed, runs, results))
-            lines.append(f"{row:10s} seed {seed}: {marks}")
+            lines.append(f"{row:{width}s} seed {seed}: {marks}")
     return "\n".join(lines)
 
 
