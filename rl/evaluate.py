@@ -106,12 +106,12 @@ def evaluate(
                     f"{int((counts < episodes_per_env).sum())} envs short of {episodes_per_env} "
                     "episodes: do the env's episodes end (truncation)?"
                 )
+            counting = counts < episodes_per_env
             if live is not None:
-                live(counts < episodes_per_env)
+                live(counting)
             obs, reward, terminated, truncated, info = env.step(policy_fn(obs))
             steps += 1
             done = np.asarray(terminated) | np.asarray(truncated)
-            counting = counts < episodes_per_env
             if reset is not None:
                 reset(done)
             if recorder is not None:

@@ -304,31 +304,22 @@ class BatchSim(PegStateViews):
         if live is not None and not live.all():
             busy = np.zeros(len(self.models), dtype=bool)
             busy[self.shard_of[live]] = True
-        if busy is None or busy.all():
+        # every shard (views, no copies), or an evaluation's tail: the shards that still hold
+        # counted episodes
+        idx = slice(None) if busy is None or busy.all() else np.flatnonzero(busy)
+        models = self.models if isinstance(idx, slice) else [self.models[i] for i in idx]
+        if models:
+            out = self._out[: len(models)]
             self._rollout.rollout(
-                self.models,
+                models,
                 self.datas,
-                self.shard_state,
-                self._ctrl,
-                nstep=self.task.physics.substeps,
-                state=self._out,
-                skip_checks=True,
-            )
-            self.shard_state[:] = self._out[:, -1]
-        elif busy.any():
-            # an evaluation's tail: only the shards that still hold counted episodes
-            sel = np.flatnonzero(busy)
-            out = self._out[: len(sel)]
-            self._rollout.rollout(
-                [self.models[i] for i in sel],
-                self.datas,
-                self.shard_state[sel],
-                self._ctrl[sel],
+                self.shard_state[idx],
+                self._ctrl[idx],
                 nstep=self.task.physics.substeps,
                 state=out,
                 skip_checks=True,
             )
-            self.shard_state[sel] = out[:, -1]
+            self.shard_state[idx] = out[:, -1]
         unstable = np.empty(self.num_envs, dtype=bool)
         K.gather(self._ss_flat, self._layout, t0, self._checks, self.state, unstable)
         if busy is not None:

@@ -213,6 +213,8 @@ class PegInHoleVecEnv:
         self._step_params = K.StepParams.of(cfg)
         self._no_noise = np.zeros((n, 6), dtype=np.float32)
         self._live: np.ndarray | None = None
+        self.parks_finished = bool(getattr(self.sim, "skips_idle", False))
+        """Whether set_live parks envs (MuJoCo's BatchSim) or is ignored (other engines)."""
 
     # ------------------------------------------------------------------ helpers
 
@@ -378,7 +380,7 @@ class PegInHoleVecEnv:
         at all; an env that counts again (and every parked env at None) starts a new
         episode. The draws of a run that parks envs differ from one that does not. Other
         engines ignore it."""
-        if not getattr(self.sim, "skips_idle", False):
+        if not self.parks_finished:
             return
         old = self._live if self._live is not None else np.ones(self.num_envs, dtype=bool)
         if live is None:
@@ -692,7 +694,7 @@ def make_eval_env(
         "engine": engine,
         # envs done with their attempts: parked and skipped (set_live), or stepped to the end
         # as before (evaluation files without this field); the two draw differently
-        "finished_envs": "parked" if getattr(env.sim, "skips_idle", False) else "stepped",
+        "finished_envs": "parked" if env.parks_finished else "stepped",
     }
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
