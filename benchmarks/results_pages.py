@@ -201,11 +201,13 @@ def assembly_table() -> str:
     return "\n".join(rows) + "\n"
 
 
-def page_table(page: Page) -> str:
-    """The markdown table the page's inputs give now."""
-    from rl.report import load_summary, markdown_table
+def page_table(page: Page, compact: bool = False) -> str:
+    """The markdown table the page's inputs give now; compact: the README's short form."""
+    from rl.report import compact_table, load_summary, markdown_table
 
     summary, _ = load_summary(page.run_paths(), page.baseline_paths(), page.screening)
+    if compact:
+        return compact_table(summary, f"docs/results/{page.name}/table.md")
     return markdown_table(summary, paper=not page.screening)
 
 
@@ -234,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
             now = page_table(page).strip()
             if not table.exists() or table.read_text().strip() != now:
                 stale.append(page.name)
-            if page.readme and readme_table() != now:
+            if page.readme and readme_table() != page_table(page, compact=True).strip():
                 stale.append("README.md")
             continue
         write_report(
@@ -246,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"wrote {out.relative_to(ROOT)}/")
         if page.readme:
-            replace_table(ROOT / "README.md", table.read_text())
+            replace_table(ROOT / "README.md", page_table(page, compact=True))
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
     for name, make in (("referee", referee_table), ("assembly", assembly_table)):
         path = RESULTS / name / "table.md"

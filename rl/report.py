@@ -368,11 +368,11 @@ def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:
     }
 
 
-def _pct(cell: Cell | None) -> str:
+def _pct(cell: Cell | None, episodes: bool = True) -> str:
     if cell is None:
         return DASH
     std = f" ± {100 * cell.success_std:.2f}" if cell.evals > 1 else ""
-    return f"{100 * cell.success_mean:.2f}{std} % (n = {cell.episodes})"
+    return f"{100 * cell.success_mean:.2f}{std} %" + (f" (n = {cell.episodes})" * episodes)
 
 
 def _budget(b: np.ndarray | None) -> tuple[str, str]:
@@ -441,6 +441,41 @@ def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
         "episodes. Trained policies act with their mean action (the paper's protocol) unless "
         f"the row says{SAMPLED}."
         + (" Paper: Orsula et al. 2024, Table III (10 attempts per module).\n" if paper else "\n")
+    )
+
+
+def compact_table(summary: dict[str, Any], page: str) -> str:
+    """The README's short form of `markdown_table` (paper layout): test split only, a
+    policy's sampled-action figure in its own row's cell rather than a row of its own, no
+    episode counts. Every filed lane then adds one line, not two, and the other splits stay
+    on `page` (a link), so the README keeps its size as Table III fills in."""
+    cells = summary["cells"]
+    names = {v.removesuffix(SAMPLED) for v in set(cells) | set(summary["curves"])}
+    head = ["agent", "seeds", "env steps", "wall clock", "test set", "sampled actions"]
+    head += ["median time (test)", "paper test set", "paper median"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    for v in _order(names | set(ROW_ORDER)):
+        test = cells.get(v, {}).get("test")
+        n_seeds = len(summary["seeds"].get(v, [])) or (test.evals if test else 0)
+        median = test.median_time_to_success_s if test is not None else math.nan
+        ref = PAPER_SUCCESS_PCT.get(v)
+        values = [
+            v,
+            str(n_seeds) if n_seeds else DASH,
+            *_budget(summary.get("budgets", {}).get(v)),
+            _pct(test, episodes=False),
+            _pct(cells.get(v + SAMPLED, {}).get("test"), episodes=False),
+            DASH if math.isnan(median) else f"{median:.2f} s",
+            f"{ref[1]:.2f} %" if ref else DASH,
+            f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
+        ]
+        lines.append("| " + " | ".join(values) + " |")
+    return "\n".join(lines) + (
+        "\n\nSuccess with the mean action (the paper's protocol) and with sampled actions: "
+        "mean ± std over seeds (no ± for one seed). Env steps, wall clock: a seed's training, "
+        f"mean over the seeds. The other splits, episode counts and the paper's train split: "
+        f"[the full table]({page}). Paper: Orsula et al. 2024, Table III.\n"
     )
 
 

@@ -363,6 +363,33 @@ def test_noise_scaled_evaluations_get_their_own_column(tmp_path: Path) -> None:
     assert "| test (noise ×2) set |" in markdown_table(summary)
 
 
+def test_the_readme_table_puts_sampled_actions_beside_the_mean_and_test_only(
+    tmp_path: Path,
+) -> None:
+    """compact_table: one line per agent (its sampled-action figure in a cell, not a row of
+    its own), the test split only, a link to the full page for the rest."""
+    from rl.report import compact_table
+
+    runs = []
+    for seed, (det, smp) in enumerate([(0.8, 0.9), (0.6, 0.7)]):
+        run = fake_run(tmp_path / f"sac{seed}", "sac", 1, seed, [64, 128], [0.0, 0.5])
+        who = {"algo": "sac", "stack": 1}
+        fake_eval(run / "eval_test.json", "datasets/test", det, 10, [1.0] * 8, **who)
+        fake_eval(run / "eval_test_sampled.json", "datasets/test", smp, 10, [2.0] * 9,
+                  policy="stochastic", **who)  # fmt: skip
+        fake_eval(run / "eval_train.json", "datasets/train", 0.5, 10, [3.0] * 5, **who)
+        runs.append(load_run(run))
+    table = compact_table(summarise(runs, []), "docs/results/x/table.md")
+    assert "| SAC | 2 | 128 | 0.0 min | 70.00 ± 10.00 % | 80.00 ± 10.00 % | 1.00 s | 49.73 % |" in (
+        table
+    )
+    assert "(sampled)" not in table and "n = " not in table and "train set" not in table
+    assert table.count("\n| PPO |") == 1  # the paper's rows stay, empty
+    assert "[the full table](docs/results/x/table.md)" in table
+    full = markdown_table(summarise(runs, []))
+    assert "| SAC (sampled) |" in full and "| train set |" in full
+
+
 def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
     """Six variants whose names hashed to shared colours before: all distinct now, and the
     same variant gets the same colour in every plot of one report."""
