@@ -561,48 +561,44 @@ def plot_time_to_success(
     split: str = "test",
     colors: dict[str, Any] | None = None,
 ) -> None:
-    """Histogram (density, 1/s) of time to success (s) per variant on `split`, its median
-    a dashed line; the legend gives the median and the count of successes.
-    colors: {variant: colour} (default: `palette` of these variants)."""
+    """Time to success (s) per variant on `split`, one row each in table order: a box from
+    the 25th to the 75th percentile, whiskers from the 10th to the 90th, a tick at the
+    median; the row's label gives the median and the count of successes. Sampled-action rows
+    take their variant's colour, paler. (Overlaid histograms were unreadable past a handful of
+    variants; rows stay readable for any number.) colors: {variant: colour} (default:
+    `palette` of these variants)."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only: no display on servers and CI
     import matplotlib.pyplot as plt
 
     colors = colors or palette(set(cells))
-    fig, ax = _figure()
     have = {v: row[split] for v, row in cells.items() if split in row}
-    every = [c.time_to_success_s for c in have.values() if len(c.time_to_success_s)]
-    bins: np.ndarray | int = 10
-    if every:
-        # shared bins so the variants compare; about 0.1 s wide over the episodes' 10 s
-        top = max(float(np.max(np.concatenate(every))), 1e-3)
-        bins = np.linspace(0.0, top, max(10, min(100, int(top / 0.1) + 1)))
-    for v in _order(set(have)):
+    names = _order(set(have))
+    fig, ax = plt.subplots(figsize=(8, max(3.0, 1.4 + 0.32 * len(names))), dpi=100)
+    labels = []
+    for i, v in enumerate(names):
         c, col = have[v], colors[v]
-        if not len(c.time_to_success_s):
-            ax.plot([], [], color=col, label=f"{v}: no success (n = {c.episodes})")
+        t = c.time_to_success_s
+        if not len(t):
+            labels.append(f"{v}: no success (n = {c.episodes})")
             continue
-        med = c.median_time_to_success_s
-        label = f"{v}: median {med:.2f} s ({len(c.time_to_success_s)} successes)"
-        # density, not counts: variants with more seeds or successes would hide the others
-        sampled = v.endswith(SAMPLED)  # its variant's colour, dotted
-        ax.hist(
-            c.time_to_success_s,
-            bins=bins,
-            density=True,
-            histtype="step",
-            lw=1.5,
-            ls=":" if sampled else "-",
-            color=col,
-            label=label,
-        )
-        ax.axvline(med, color=col, ls=":" if sampled else "--", lw=1.5)
+        p10, p25, med, p75, p90 = np.percentile(t, [10, 25, 50, 75, 90])
+        alpha = 0.35 if v.endswith(SAMPLED) else 0.8
+        ax.hlines(i, p10, p90, color=col, lw=1.5)
+        ax.barh(i, p75 - p25, left=p25, height=0.6, color=col, alpha=alpha, edgecolor=col)
+        ax.vlines(med, i - 0.3, i + 0.3, color="black", lw=2)
+        labels.append(f"{v}: median {med:.2f} s ({len(t)} successes)")
     if not have:
         ax.text(0.5, 0.5, f"no {split}-set evaluation", ha="center", transform=ax.transAxes)
-    ax.set(xlabel="time to success (s)", ylabel="density of successful episodes (1/s)")
-    ax.set_title(f"Time to success on the {split} set (dashed: median; dotted: sampled)")
-    ax.grid(alpha=0.3)
-    if have:  # below the axes: the variants' names are long and would cover the curves
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize="small")
-    fig.tight_layout()
+    ax.set_yticks(range(len(names)), labels, fontsize="small")
+    ax.set_ylim(max(len(names), 1) - 0.5, -0.5)  # the table's first row on top
+    ax.set_xlim(left=0)
+    ax.set(xlabel="time to success (s)")
+    ax.set_title(
+        f"Time to success on the {split} set (box: 25–75 %, whiskers: 10–90 %, tick: median)"
+    )
+    ax.grid(axis="x", alpha=0.3)
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
 
