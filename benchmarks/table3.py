@@ -5,7 +5,8 @@
     python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
 
 ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog,
-sac-symlog-n3: the best teacher-free candidates screened, 120 minutes). A trained row runs
+sac-symlog-n3, sac-symlog-n3-gs05: the best teacher-free candidates screened, 120 minutes). A
+trained row runs
 
     assetgen train --algo ALGO [--stack 10] [--set FIELD=VALUE] --dataset train --minutes M \\
         --seed S --threads T --out runs/table3/ROW-sS
@@ -63,10 +64,14 @@ ROWS: dict[str, Row] = {
     "dreamer": Row("dreamer"),
     "sac-symlog": Row("sac", overrides=("obs_symlog_scale=1000",), minutes=120.0),
     "sac-symlog-n3": Row("sac", overrides=("obs_symlog_scale=1000", "n_step=3"), minutes=120.0),
+    "sac-symlog-n3-gs05": Row(
+        "sac", overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5"), minutes=120.0
+    ),
 }
 """The paper's rows ("-stack": its STACK variant, the last 10 observations), then the best
 teacher-free candidates of the screening (docs/results/README.md), with their overrides and
-their two hours: SAC on symlog observations, then the same with 3-step returns."""
+their two hours: SAC on symlog observations, then the same with 3-step returns, then with
+half a gradient step per env step as well (more env steps in the two hours)."""
 
 
 def run_dir(runs: Path, row: str, seed: int) -> Path:
