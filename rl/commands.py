@@ -328,10 +328,15 @@ def train_main(
         print(json.dumps(result))
     else:
         m, nan = result["metrics"], float("nan")
+        # a resumed run whose budget was already spent ran no iteration: no row to give
+        last = (
+            f"success {m.get('success_rate', nan):.1%}, return {m.get('return_mean', nan):.3f}"
+            if m
+            else "no iteration left in its budget"
+        )
         console.print(
             f"{result['status']}: {result['env_steps']:,} env steps, {result['iterations']} "
-            f"iterations, {result['seconds']:.0f} s; success {m.get('success_rate', nan):.1%}, "
-            f"return {m.get('return_mean', nan):.3f}; checkpoint {result['checkpoint']}"
+            f"iterations, {result['seconds']:.0f} s; {last}; checkpoint {result['checkpoint']}"
         )
     return {"done": 0, "nan": 1, "interrupted": 130}[result["status"]]
 

@@ -12,7 +12,9 @@ from rl.checkpoint import read_counters
 from rl.report import load_run, markdown_table, summarise
 
 
-def test_a_candidate_is_screened_once_and_filed_under_its_name(tiny_dataset, tmp_path) -> None:
+def test_a_candidate_is_screened_once_and_filed_under_its_name(
+    tiny_dataset, tmp_path, capsys
+) -> None:
     run, results = tmp_path / "run", tmp_path / "results"
     assert assetgen(["train", "--algo", "ppo", "--preset", "debug", "--dataset",
                      str(tiny_dataset), "--envs", "2", "--steps", "256", "--no-progress",
@@ -41,6 +43,14 @@ def test_a_candidate_is_screened_once_and_filed_under_its_name(tiny_dataset, tmp
     screen(run, "ppo-debug", results=results, dataset=str(tiny_dataset))
     later = read_counters(run)["env_steps"]
     assert later > first
+    # resumed once more with its budget spent: it says so, rather than "success nan%"
+    capsys.readouterr()
+    assert assetgen(["train", "--algo", "ppo", "--preset", "debug", "--dataset",
+                     str(tiny_dataset), "--envs", "2", "--steps", "512", "--no-progress",
+                     "--threads", "1", "--out", str(run), "--resume"]) == 0  # fmt: skip
+    said = capsys.readouterr().err  # the run's log goes to stderr
+    assert "no iteration left in its budget" in said and "nan" not in said
+    assert read_counters(run)["env_steps"] == later
     for name in ("eval_train.json", "eval_train_sampled.json", "jams_train.json"):
         assert json.loads((filed / name).read_text())["trained_env_steps"] == later, name
     # on the page the candidate is its own row, named by its folder
