@@ -454,7 +454,6 @@ def compact_table(summary: dict[str, Any], page: str) -> str:
     head = ["agent", "seeds", "env steps", "wall clock", "test set", "sampled actions"]
     head += ["median time (test)", "paper test set", "paper median"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-
     for v in _order(names | set(ROW_ORDER)):
         test = cells.get(v, {}).get("test")
         n_seeds = len(summary["seeds"].get(v, [])) or (test.evals if test else 0)
@@ -474,7 +473,7 @@ def compact_table(summary: dict[str, Any], page: str) -> str:
     return "\n".join(lines) + (
         "\n\nSuccess with the mean action (the paper's protocol) and with sampled actions: "
         "mean ± std over seeds (no ± for one seed). Env steps, wall clock: a seed's training, "
-        f"mean over the seeds. The other splits, episode counts and the paper's train split: "
+        "mean over the seeds. The other splits, episode counts and the paper's train split: "
         f"[the full table]({page}). Paper: Orsula et al. 2024, Table III.\n"
     )
 
