@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
            args.expert: expert}  # fmt: skip
     print(f"{'median control step (0.02 s)':<32} {'policy':>8} {args.expert:>16}")
     for key in [k for k in expert if k in policy]:
-        print(f"{key:<32} {policy[key]:>8.1f} {expert[key]:>16.1f}")
+        print(f"{key:<32} {policy[key]:>8.4g} {expert[key]:>16.4g}")
     if args.json:
         from assetgen.core.atomic_file import write_json
 
