@@ -396,6 +396,21 @@ def median_split(summary: dict[str, Any]) -> str:
     return "test" if any("test" in row for row in cells) or not cells else "train"
 
 
+def _row_start(summary: dict[str, Any], v: str, split: str) -> tuple[list[str], str]:
+    """A table row's first cells (agent, seeds, env steps, wall clock) and its median time
+    to success on `split`, as both table layouts write them."""
+    row = summary["cells"].get(v, {})
+    n_seeds = len(summary["seeds"].get(v, [])) or max((c.evals for c in row.values()), default=0)
+    cell = row.get(split)
+    median = cell.median_time_to_success_s if cell is not None else math.nan
+    start = [v, str(n_seeds) if n_seeds else DASH, *_budget(summary.get("budgets", {}).get(v))]
+    return start, DASH if math.isnan(median) else f"{median:.2f} s"
+
+
+def _paper_median(v: str) -> str:
+    return f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH
+
+
 def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
     """Table III layout: one row per agent, success on each split, median time on test.
     paper: with the paper's rows always shown and its figures beside ours; without, only
@@ -412,26 +427,14 @@ def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for v in _order(names):
         row = cells.get(v, {})
-        test = row.get(on)
-        median = test.median_time_to_success_s if test is not None else math.nan
-        n_seeds = len(summary["seeds"].get(v, [])) or max(
-            (c.evals for c in row.values()), default=0
-        )
-        steps, wall = _budget(summary.get("budgets", {}).get(v))
-        values = [
-            v,
-            str(n_seeds) if n_seeds else DASH,
-            steps,
-            wall,
-            *(_pct(row.get(s)) for s in splits),
-            DASH if math.isnan(median) else f"{median:.2f} s",
-        ]
+        start, median = _row_start(summary, v, on)
+        values = [*start, *(_pct(row.get(s)) for s in splits), median]
         if paper:
             ref = PAPER_SUCCESS_PCT.get(v)
             values += [
                 f"{ref[0]:.2f} %" if ref else DASH,
                 f"{ref[1]:.2f} %" if ref else DASH,
-                f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
+                _paper_median(v),
             ]
         lines.append("| " + " | ".join(values) + " |")
     return "\n".join(lines) + (
@@ -455,19 +458,15 @@ def compact_table(summary: dict[str, Any], page: str) -> str:
     head += ["median time (test)", "paper test set", "paper median"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for v in _order(names | set(ROW_ORDER)):
-        test = cells.get(v, {}).get("test")
-        n_seeds = len(summary["seeds"].get(v, [])) or (test.evals if test else 0)
-        median = test.median_time_to_success_s if test is not None else math.nan
+        start, median = _row_start(summary, v, "test")
         ref = PAPER_SUCCESS_PCT.get(v)
         values = [
-            v,
-            str(n_seeds) if n_seeds else DASH,
-            *_budget(summary.get("budgets", {}).get(v)),
-            _pct(test, episodes=False),
+            *start,
+            _pct(cells.get(v, {}).get("test"), episodes=False),
             _pct(cells.get(v + SAMPLED, {}).get("test"), episodes=False),
-            DASH if math.isnan(median) else f"{median:.2f} s",
+            median,
             f"{ref[1]:.2f} %" if ref else DASH,
-            f"{PAPER_MEDIAN_TEST_S[v]:.2f} s" if v in PAPER_MEDIAN_TEST_S else DASH,
+            _paper_median(v),
         ]
         lines.append("| " + " | ".join(values) + " |")
     return "\n".join(lines) + (
