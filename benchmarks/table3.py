@@ -22,7 +22,8 @@ Every stage is skipped when its output exists, and a training cut short goes on 
 checkpoint (`--minutes` is the whole run's budget): the same command picks up where a stopped
 session left it. Two lanes at a time on the 2-core machine, one torch thread each, as the
 published rows were run: two `--next` processes share the lanes (each claims the one it runs
-in a file beside the runs; a claim whose process has gone is taken over).
+in a file beside the runs; a claim whose process has gone is taken over). A candidate row
+that a later one superseded is left out of `--next`; its seeds still run by name.
 """
 
 from __future__ import annotations
@@ -54,6 +55,10 @@ class Row:
     """`--set FIELD=VALUE` overrides of the preset's config (a screened candidate's)."""
     minutes: float | None = None
     """The row's own training budget; None: the lane's --minutes (60, the paper's rows)."""
+    superseded_by: str | None = None
+    """The candidate row that replaced this one: `--next` leaves the seeds it has not filed
+    (two hours each, for a recipe no longer the best); its filed seeds stay on the pages and
+    `python -m benchmarks.table3 ROW --seed S` still runs one."""
 
 
 ROWS: dict[str, Row] = {
@@ -63,10 +68,23 @@ ROWS: dict[str, Row] = {
     "sac": Row("sac"),
     "sac-stack": Row("sac", 10),
     "dreamer": Row("dreamer"),
-    "sac-symlog": Row("sac", overrides=("obs_symlog_scale=1000",), minutes=120.0),
-    "sac-symlog-n3": Row("sac", overrides=("obs_symlog_scale=1000", "n_step=3"), minutes=120.0),
+    "sac-symlog": Row(
+        "sac",
+        overrides=("obs_symlog_scale=1000",),
+        minutes=120.0,
+        superseded_by="sac-symlog-n3-gs05-g098",
+    ),
+    "sac-symlog-n3": Row(
+        "sac",
+        overrides=("obs_symlog_scale=1000", "n_step=3"),
+        minutes=120.0,
+        superseded_by="sac-symlog-n3-gs05-g098",
+    ),
     "sac-symlog-n3-gs05": Row(
-        "sac", overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5"), minutes=120.0
+        "sac",
+        overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5"),
+        minutes=120.0,
+        superseded_by="sac-symlog-n3-gs05-g098",
     ),
     "sac-symlog-n3-gs05-g098": Row(
         "sac",
@@ -173,8 +191,9 @@ def file_run(run: Path, filed: Path, files: dict[str, str]) -> None:
 
 def lanes() -> list[tuple[str, int]]:
     """Every lane, in the order `--next` takes them: row by row in the paper's order (the
-    random row first, an evaluation alone), seeds 0, 1, 2, so whole rows fill first."""
-    return [(row, seed) for row in ROWS for seed in SEEDS]
+    random row first, an evaluation alone), seeds 0, 1, 2, so whole rows fill first; the
+    rows a later candidate superseded are left out."""
+    return [(row, seed) for row, r in ROWS.items() if r.superseded_by is None for seed in SEEDS]
 
 
 def _claim(runs: Path, row: str, seed: int) -> Path | None:
@@ -229,7 +248,11 @@ def plan(runs: Path, results: Path = RESULTS) -> str:
     width = max(map(len, ROWS))
     for row in ROWS:
         for seed in SEEDS:
-            marks = " ".join(m + name for name, m in stages(row, seed, runs, results))
+            done = stages(row, seed, runs, results)
+            marks = " ".join(m + name for name, m in done)
+            later = ROWS[row].superseded_by
+            if later and any(m != "+" for _, m in done):
+                marks += f" (superseded by {later}: not in --next)"
             lines.append(f"{row:{width}s} seed {seed}: {marks}")
     return "\n".join(lines)
 

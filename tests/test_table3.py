@@ -107,3 +107,18 @@ def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_pat
     assert not (runs / ".random-s2.claim").exists() and not (runs / ".ppo-s0.claim").exists()
     assert (runs / ".random-s1.claim").exists()  # the live holder keeps its lane
     assert _claim(runs, "random", 1) is None
+
+
+def test_next_leaves_the_seeds_of_a_superseded_candidate_and_plan_says_so(tmp_path) -> None:
+    from benchmarks.table3 import ROWS, lanes
+
+    old = [row for row, r in ROWS.items() if r.superseded_by]
+    assert old, "no superseded candidate to check"
+    for row in old:
+        assert ROWS[row].superseded_by in ROWS  # it names a row that exists
+        assert all(r != row for r, _ in lanes())
+    assert [s for r, s in lanes() if r == "ppo"] == [0, 1, 2]  # the paper's rows stay
+    lines = plan(tmp_path / "runs", tmp_path / "results").splitlines()
+    marked = [line for line in lines if "not in --next" in line]
+    assert marked and all(line.split()[0] in old for line in marked)
+    assert len(marked) == 3 * len(old)  # nothing filed here: every seed of them is left
