@@ -6,8 +6,7 @@
 
 ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog,
 sac-symlog-n3, sac-symlog-n3-gs05, sac-symlog-n3-gs05-g098: the best teacher-free candidates
-screened, 120 minutes). A
-trained row runs
+screened, 120 minutes). A trained row runs
 
     assetgen train --algo ALGO [--stack 10] [--set FIELD=VALUE] --dataset train --minutes M \\
         --seed S --threads T --out runs/table3/ROW-sS
