@@ -6,7 +6,8 @@ gather on.
 EVAL.json is an `assetgen eval --out` file (its per-module success rates); the modules'
 parameters come from the dataset's manifest (the folder the evaluation names, or
 --dataset). Each parameter's modules are split into quartiles (a parameter with at most
-four values: one group a value), and each group's mean success is printed. `hole_tilt`
+eight values, such as n_vertices: one group a value, so that triangles are not pooled with
+squares), and each group's mean success is printed. `hole_tilt`
 is derived: the hole axis' angle from the vertical, hypot(hole_tilt_x, hole_tilt_y) rad.
 A policy that is short of its target shows here where: for instance, pegs with few
 vertices need their yaw within a few degrees, round ones do not.
@@ -22,6 +23,8 @@ from pathlib import Path
 import numpy as np
 
 QUARTILES = (0.25, 0.5, 0.75)
+BY_VALUE = 8
+"""A parameter with at most this many distinct values is grouped by value."""
 
 
 def module_params(dataset: str | Path) -> dict[str, dict[str, float]]:
@@ -38,10 +41,10 @@ def module_params(dataset: str | Path) -> dict[str, dict[str, float]]:
 
 
 def groups(values: np.ndarray) -> list[tuple[float, float, np.ndarray]]:
-    """(low, high, mask) of each group: one per value when there are at most four values,
-    else the quartiles (each bound inclusive of its upper edge)."""
+    """(low, high, mask) of each group: one per value when there are at most BY_VALUE
+    values, else the quartiles (each bound inclusive of its upper edge)."""
     distinct = np.unique(values)
-    if len(distinct) <= len(QUARTILES) + 1:
+    if len(distinct) <= BY_VALUE:
         return [(v, v, values == v) for v in distinct]
     edges = [values.min(), *np.quantile(values, QUARTILES), values.max()]
     out = []

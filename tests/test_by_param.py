@@ -11,12 +11,15 @@ from benchmarks.by_param import by_param, groups, main, module_params
 
 
 def test_groups_are_quartiles_or_values() -> None:
-    g = groups(np.arange(8.0))
+    g = groups(np.arange(12.0))
     assert [(lo, hi, int(m.sum())) for lo, hi, m in g] == [
-        (0.0, 1.75, 2), (1.75, 3.5, 2), (3.5, 5.25, 2), (5.25, 7.0, 2)]  # fmt: skip
-    assert sum(int(m.sum()) for *_, m in g) == 8  # every value in one group only
+        (0.0, 2.75, 3), (2.75, 5.5, 3), (5.5, 8.25, 3), (8.25, 11.0, 3)]  # fmt: skip
+    assert sum(int(m.sum()) for *_, m in g) == 12  # every value in one group only
     g = groups(np.array([3.0, 4.0, 3.0, 6.0]))
     assert [(lo, int(m.sum())) for lo, _, m in g] == [(3.0, 2), (4.0, 1), (6.0, 1)]
+    # n_vertices' seven values (3-8 and 32): each its own group, triangles apart from squares
+    sides = np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 32.0, 3.0])
+    assert [(lo, int(m.sum())) for lo, _, m in groups(sides)][:2] == [(3.0, 2), (4.0, 1)]
 
 
 def test_failures_gather_on_the_parameter_that_causes_them(tiny_dataset, tmp_path, capsys):
