@@ -247,10 +247,10 @@ def plan(runs: Path, results: Path = RESULTS) -> str:
     width = max(map(len, ROWS))
     for row in ROWS:
         for seed in SEEDS:
-            done = stages(row, seed, runs, results)
-            marks = " ".join(m + name for name, m in done)
+            staged = stages(row, seed, runs, results)
+            marks = " ".join(m + name for name, m in staged)
             later = ROWS[row].superseded_by
-            if later and any(m != "+" for _, m in done):
+            if later and any(m != "+" for _, m in staged):
                 marks += f" (superseded by {later}: not in --next)"
             lines.append(f"{row:{width}s} seed {seed}: {marks}")
     return "\n".join(lines)
