@@ -15,56 +15,40 @@ Tune on the train split only.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks.module_episodes import Act, ModuleEpisodes, Reset, checkpoint_policy
 
 RADII_MM = (50.0, 20.0, 10.0, 5.0, 2.0)
 TILT_DEG = 3.0
 
 
 def trace(
-    act: Callable[[np.ndarray], np.ndarray],
+    act: Act,
     dataset: str,
     modules: int,
     seed: int = 0,
     stack: int = 1,
-    reset: Callable[[np.ndarray], None] | None = None,
+    reset: Reset | None = None,
 ) -> dict[str, np.ndarray]:
     """One episode per module under `act` (observations, stacked `stack` deep, to actions;
     `reset(mask)` restarts a recurrent policy's state); per control step and env (NaN once
     the episode has ended): the offset from the axis (mm), the height above the entrance (mm)
     and the tilt (degrees); and each env's success step (NaN: no success)."""
-    from sim.env import make_eval_env
-
-    env = make_eval_env(dataset, None, seed, modules=modules)
-    policy_env = env
-    if stack > 1:  # the policy sees its training's stack of observations
-        from rl.stack import StackObs
-
-        policy_env = StackObs(env, stack)
-    n, steps = env.num_envs, env.cfg.max_steps
-    obs = policy_env.reset(seed)
-    if reset is not None:
-        reset(np.ones(n, dtype=bool))
-    offset, height, tilt = (np.full((steps, n), np.nan) for _ in range(3))
-    success_step = np.full(n, np.nan)
-    ended = np.zeros(n, bool)
-    for t in range(steps):
+    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset)
+    env, n = episodes.env, episodes.env.num_envs
+    offset, height, tilt = (np.full((episodes.steps, n), np.nan) for _ in range(3))
+    for t, _ in episodes:
         peg = env.peg_poses()
         rel = env.bottom_inv @ peg
-        live = ~ended
+        live = ~episodes.ended
         offset[t, live] = np.hypot(rel[live, 0, 3], rel[live, 1, 3]) * 1e3
         height[t, live] = (env.entrance_inv @ peg)[live, 2, 3] * 1e3
         tilt[t, live] = np.degrees(np.arccos(np.clip(rel[live, 2, 2], -1.0, 1.0)))
-        obs, _, terminated, truncated, info = policy_env.step(act(obs))
-        if reset is not None:
-            reset(terminated | truncated)
-        first = (terminated | truncated) & ~ended
-        success_step[first & np.asarray(info["success"])] = t + 1
-        ended |= first
-    return {"offset_mm": offset, "height_mm": height, "tilt_deg": tilt, "success": success_step}
+    success = np.where(episodes.success, episodes.end_step + 1, np.nan)
+    return {"offset_mm": offset, "height_mm": height, "tilt_deg": tilt, "success": success}
 
 
 def _first(mask: np.ndarray) -> np.ndarray:
@@ -106,15 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--modules {args.modules}: give at least 1")
     if args.expert not in EXPERTS:
         p.error(f"--expert {args.expert!r}: give one of {', '.join(EXPERTS)}")
-    import torch
-
-    from rl.runner import load_agent, reset_hook
-
-    torch.set_num_threads(1)
-    torch.manual_seed(0)
-    agent, meta = load_agent(args.checkpoint, None)
-    act = lambda o: agent.policy(o, deterministic=True)  # noqa: E731
-    stack, reset = int(meta.get("stack", 1)), reset_hook(agent)
+    act, stack, reset = checkpoint_policy(args.checkpoint)
     policy = milestones(trace(act, args.dataset, args.modules, stack=stack, reset=reset))
     expert = milestones(trace(EXPERTS[args.expert], args.dataset, args.modules))
     res = {"checkpoint": args.checkpoint, "dataset": args.dataset, "policy": policy,

@@ -21,54 +21,31 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.module_episodes import ModuleEpisodes, checkpoint_policy
+
 
 def run(
     checkpoint: str, dataset: str, modules: int, stochastic: bool, seed: int = 0
 ) -> dict[str, object]:
     """One episode per module; the jams' figures (see module doc)."""
-    import torch
-
     from rl.checkpoint import read_counters
-    from rl.runner import load_agent, reset_hook
-    from sim.env import make_eval_env
 
-    torch.set_num_threads(1)
-    torch.manual_seed(seed)
-    agent, meta = load_agent(checkpoint, None)
-    env = make_eval_env(dataset, None, seed, modules=modules)
-    policy_env = env
-    if meta.get("stack", 1) > 1:  # the policy sees its training's stack of observations
-        from rl.stack import StackObs
-
-        policy_env = StackObs(env, meta["stack"])
-    n, steps, tail = env.num_envs, env.cfg.max_steps, 50
-    obs = policy_env.reset(seed)
-    reset = reset_hook(agent)  # a recurrent policy restarts its state with each episode
-    if reset is not None:
-        reset(np.ones(n, dtype=bool))
+    act, stack, reset = checkpoint_policy(checkpoint, not stochastic, seed)
+    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset)
+    env, n, tail = episodes.env, episodes.env.num_envs, 50
     pos = np.zeros((tail, n, 3))
     below = np.zeros(n)
     tilt = np.zeros(n)
     acts = np.zeros((tail, n, 6))
-    ended = np.zeros(n, bool)
-    success = np.zeros(n, bool)
-    for t in range(steps):
-        a = agent.policy(obs, deterministic=not stochastic)
-        if t >= steps - tail:
+    for t, a in episodes:
+        if t >= episodes.steps - tail:
+            i = t - episodes.steps + tail
             peg = env.peg_poses()
             rel = env.bottom_inv @ peg
             below = -(env.entrance_inv @ peg)[:, 2, 3] * 1e3
-            pos[t - steps + tail] = rel[:, :3, 3] * 1e3
+            pos[i] = rel[:, :3, 3] * 1e3
             tilt = np.degrees(np.arccos(np.clip(rel[:, 2, 2], -1.0, 1.0)))
-            acts[t - steps + tail] = np.clip(a, -1.0, 1.0)
-        obs, _, terminated, truncated, info = policy_env.step(a)
-        if reset is not None:
-            reset(terminated | truncated)
-        first = (terminated | truncated) & ~ended
-        success[first] = np.asarray(info["success"])[first]
-        # an episode that ends before the limit restarts: only the first counts
-        ended |= first & (t < steps - 1)
-    jams = np.flatnonzero(~ended & ~success)
+            acts[i] = np.clip(a, -1.0, 1.0)
     rows = [
         {
             "module": env.module_ids[env.env_module[i]],
@@ -78,7 +55,7 @@ def run(
             "moved_mm": float(np.ptp(pos[:, i], axis=0).max()),
             "action_xyz": acts[:, i, :3].mean(0).round(3).tolist(),
         }
-        for i in jams
+        for i in np.flatnonzero(episodes.jammed())
     ]
     return {
         "checkpoint": checkpoint,
@@ -86,7 +63,7 @@ def run(
         "dataset": dataset,
         "modules": n,
         "policy": "stochastic" if stochastic else "deterministic",
-        "successes": int(success.sum()),
+        "successes": int(episodes.success.sum()),
         "jams": rows,
     }
 
