@@ -56,7 +56,6 @@ class ModuleEpisodes:
         self._act, self._reset, self._seed = act, reset, seed
         n = self.env.num_envs
         self.steps: int = self.env.cfg.max_steps
-        self.ended = np.zeros(n, bool)
         self.success = np.zeros(n, bool)
         self.end_step = np.full(n, np.nan)
 
@@ -74,7 +73,11 @@ class ModuleEpisodes:
             first = done & ~self.ended
             self.success[first] = np.asarray(info["success"])[first]
             self.end_step[first] = t
-            self.ended |= first
+
+    @property
+    def ended(self) -> np.ndarray:
+        """Per env: its first episode has ended."""
+        return ~np.isnan(self.end_step)
 
     def jammed(self) -> np.ndarray:
         """Per env: its first episode neither succeeded nor ended before the last step (the
