@@ -34,18 +34,18 @@ def run(
     episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset)
     env, n, tail = episodes.env, episodes.env.num_envs, 50
     pos = np.zeros((tail, n, 3))
-    below = np.zeros(n)
-    tilt = np.zeros(n)
-    acts = np.zeros((tail, n, 6))
+    below = tilt = np.zeros(n)
+    acts = np.zeros((tail, n, env.act_dim))
     for t, a in episodes:
         if t >= episodes.steps - tail:
             i = t - episodes.steps + tail
             peg = env.peg_poses()
             rel = env.bottom_inv @ peg
-            below = -(env.entrance_inv @ peg)[:, 2, 3] * 1e3
             pos[i] = rel[:, :3, 3] * 1e3
-            tilt = np.degrees(np.arccos(np.clip(rel[:, 2, 2], -1.0, 1.0)))
             acts[i] = np.clip(a, -1.0, 1.0)
+            if i == tail - 1:  # depth and tilt where the episode was cut
+                below = -(env.entrance_inv @ peg)[:, 2, 3] * 1e3
+                tilt = np.degrees(np.arccos(np.clip(rel[:, 2, 2], -1.0, 1.0)))
     rows = [
         {
             "module": env.module_ids[env.env_module[i]],
