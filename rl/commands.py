@@ -56,6 +56,10 @@ FLAGS = {
 }
 """Library parameter names as the command line spells them, for error messages."""
 
+SNAPSHOT_EVERY_S = 300.0
+"""Seconds between the snapshots of a checkpoint's evaluation with --out (OUT.partial.npz):
+the same command, rerun after a cut, goes on from the last one (rl/eval_snapshot.py)."""
+
 
 def _flags(message: str) -> str:
     """A library error in the command line's words: `noise_scale = 3` -> `--noise-scale 3`."""
@@ -383,6 +387,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     # a subset reaches the factories only when asked for: the protocol plays every module
     limit = getattr(args, "modules", None)
     subset: dict[str, Any] = {} if limit is None else {"modules": limit}
+    snapshots = None
     try:
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
@@ -476,6 +481,28 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             if hooks.recorder is None:
                 raise ValueError("--record: this env cannot record episodes")
             recorder = hooks.recorder(Path(record), getattr(args, "record_limit", None))
+        out = getattr(args, "out", None)  # absent when a caller builds args without --out
+        if out is not None and run is not None and reset is None and recorder is None:
+            if engine == "mujoco" and hasattr(env, "get_state"):
+                # a checkpoint's evaluation can take an hour: a cut one goes on (OUT.partial.npz)
+                import torch
+
+                from rl.eval_snapshot import EvalSnapshots
+
+                snapshots = EvalSnapshots(
+                    Path(f"{out}.partial.npz"),
+                    {
+                        **head,
+                        **getattr(base, "protocol", {}),
+                        "dataset": str(args.dataset),
+                        "attempts": args.episodes,
+                        "seed": args.seed,
+                        "envs": args.envs,
+                        "modules": limit,
+                        "threads": torch.get_num_threads(),
+                    },
+                    every_s=SNAPSHOT_EVERY_S,
+                )
         res = evaluate(
             policy,
             env,
@@ -485,6 +512,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             labels=hooks.labels(base) if hooks.labels is not None else None,
             recorder=recorder,
             live=getattr(base, "set_live", None),
+            snapshots=snapshots,
         )
     except ValueError as e:
         return _error(str(e))
@@ -496,11 +524,13 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         "seed": args.seed,
         **res,
     }
-    out = getattr(args, "out", None)  # absent when a caller builds args without --out
+    out = getattr(args, "out", None)
     if out is not None:
         from assetgen.core.atomic_file import strict_json, write_json
 
         write_json(out, strict_json(res))
+        if snapshots is not None:
+            snapshots.clear()
     if args.json:
         print(json.dumps(res))
         return 0

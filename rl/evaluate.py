@@ -17,6 +17,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from rl.eval_snapshot import EvalSnapshots
 from rl.vec_env import VecEnv
 
 Policy = Callable[[np.ndarray], np.ndarray]
@@ -55,6 +56,7 @@ def evaluate(
     labels: list[str] | None = None,
     recorder: Recorder | None = None,
     live: Callable[[np.ndarray | None], None] | None = None,
+    snapshots: EvalSnapshots | None = None,
 ) -> dict[str, Any]:
     """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
 
@@ -66,6 +68,9 @@ def evaluate(
     (N,) names what each env plays (its module) for `per_module`; `recorder` sees every step
     (`--record`). `live(mask)` (the env's set_live, when it has one) is told before every
     step which envs still have episodes to play, so the simulator may skip the others.
+    `snapshots` (rl/eval_snapshot.py) saves the evaluation as it goes and resumes a saved
+    one, with the same results as an uncut run: for an env with get_state/set_state and a
+    policy whose only state is torch's RNG (no `reset`, no `recorder`).
     Returns a JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
@@ -93,9 +98,30 @@ def evaluate(
     tts: list[float] = []
     truncations = failures = unstable = 0
     steps = 0
-    obs = env.reset(seed)
-    if reset is not None:
-        reset(np.ones(n, dtype=bool))
+    saved = None
+    if snapshots is not None:
+        if reset is not None or recorder is not None or not hasattr(env, "get_state"):
+            raise ValueError(
+                "snapshots need an env with get_state/set_state and a policy without "
+                "episode state (no reset hook) or recorder"
+            )
+        saved = snapshots.load()
+    if saved is not None:
+        import torch
+
+        env.set_state(saved["env"])  # type: ignore[attr-defined]
+        obs = saved["obs"]
+        counts[:], wins[:] = saved["counts"], saved["wins"]
+        returns, lengths, tts = (saved[k].tolist() for k in ("returns", "lengths", "tts"))
+        truncations, failures, unstable, steps = (
+            int(saved[k]) for k in ("truncations", "failures", "unstable", "steps")
+        )
+        t0 -= float(saved["seconds"])  # the wall time reported is the whole evaluation's
+        torch.set_rng_state(torch.from_numpy(saved["torch_rng"]))
+    else:
+        obs = env.reset(seed)
+        if reset is not None:
+            reset(np.ones(n, dtype=bool))
     if recorder is not None:
         recorder.begin(env)
     try:
@@ -129,6 +155,26 @@ def evaluate(
                 counts[i] += 1
                 if progress is not None:
                     progress(len(returns), total)
+            if snapshots is not None and snapshots.due() and (counts < episodes_per_env).any():
+                import torch
+
+                snapshots.save(
+                    {
+                        "env": env.get_state(),  # type: ignore[attr-defined]
+                        "obs": np.asarray(obs),
+                        "counts": counts,
+                        "wins": wins,
+                        "returns": np.array(returns, dtype=np.float64),
+                        "lengths": np.array(lengths, dtype=np.int64),
+                        "tts": np.array(tts, dtype=np.float64),
+                        "truncations": truncations,
+                        "failures": failures,
+                        "unstable": unstable,
+                        "steps": steps,
+                        "seconds": time.perf_counter() - t0,
+                        "torch_rng": torch.get_rng_state().numpy(),
+                    }
+                )
     finally:
         if live is not None:
             live(None)  # the env steps every env again

@@ -513,6 +513,9 @@ class PegInHoleVecEnv:
             "unstable_count": int(self.unstable_count),
             "env_module": self.env_module.copy(),
             "queue": np.array(self._queue, dtype=np.int64),
+            # the envs set_live parked (an evaluation's tail): restored as they are, not parked
+            # again, so that a resumed evaluation steps exactly as an uncut one
+            **({} if self._live is None else {"live": self._live.copy()}),
             **({} if self.curriculum is None else {"curriculum": self.curriculum.state()}),
             **({} if self.module_replay is None else {"module_replay": self.module_replay.state()}),
         }
@@ -572,6 +575,8 @@ class PegInHoleVecEnv:
         self.rng = rng
         self.global_step = int(state["global_step"])
         self.unstable_count = int(state["unstable_count"])
+        live = state.get("live")
+        self._live = None if live is None else np.asarray(live, dtype=bool).copy()
         if self.curriculum is not None:
             self.curriculum.load(state["curriculum"])
         if self.module_replay is not None:

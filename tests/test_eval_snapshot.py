@@ -1,0 +1,85 @@
+"""A cut evaluation resumed from its snapshot ends as an uncut one, episode for episode."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from rl.eval_snapshot import EvalSnapshots
+from rl.evaluate import evaluate
+from sim.expert import direct_expert_action
+from tests.test_sim_common import make_env, quiet
+
+
+class _Cut(Exception):
+    """The machine stopping mid-evaluation."""
+
+
+class _CutAfter(EvalSnapshots):
+    def __init__(self, path: Path, key: dict, saves: int) -> None:
+        super().__init__(path, key, every_s=0.0)
+        self.left = saves
+
+    def save(self, state: dict) -> None:
+        super().save(state)
+        self.left -= 1
+        if self.left == 0:
+            raise _Cut
+
+
+def _policy(obs: np.ndarray) -> np.ndarray:
+    """The expert with torch-drawn noise: sampled actions, as --stochastic gives."""
+    noise = torch.randn(len(obs), 6, dtype=torch.float64).numpy()
+    return direct_expert_action(obs) + 0.5 * noise
+
+
+def _env():
+    # 3 envs in shards of 2, short episodes: some succeed, some are cut, and envs finish
+    # their attempts at different steps (the parked tail is part of the state)
+    return make_env(3, replace(quiet(), noise=True, max_steps=90), shard_size=2)
+
+
+def _run(snapshots: EvalSnapshots | None, torch_seed: int) -> dict:
+    torch.manual_seed(torch_seed)
+    env = _env()
+    return evaluate(_policy, env, 4, seed=1, live=env.set_live, snapshots=snapshots)
+
+
+def test_a_cut_evaluation_resumes_to_the_uncut_result(tmp_path: Path) -> None:
+    key = {"run": "r", "seed": 1}
+    path = tmp_path / "eval.json.partial.npz"
+    whole = _run(None, torch_seed=0)
+    assert 0 < whole["successes"] < whole["episodes"] and whole["truncation_rate"] > 0
+    with pytest.raises(_Cut):
+        _run(_CutAfter(path, key, saves=340), torch_seed=0)
+    saved = EvalSnapshots(path, key).load()
+    assert saved is not None and 0 < len(saved["returns"]) < whole["episodes"]
+    assert 0 < saved["steps"] and "live" in saved["env"]  # cut in the parked tail
+    # another torch seed: the snapshot's RNG state must replace it
+    resumed = _run(EvalSnapshots(path, key, every_s=0.0), torch_seed=7)
+    for k in whole:
+        if k != "seconds":
+            assert resumed[k] == whole[k], k
+
+
+def test_a_snapshot_of_another_evaluation_is_set_aside(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "e.partial.npz"
+    with pytest.raises(_Cut):
+        _run(_CutAfter(path, {"seed": 1}, saves=3), torch_seed=0)
+    assert EvalSnapshots(path, {"seed": 2}).load() is None
+    assert "another evaluation" in capsys.readouterr().err
+    EvalSnapshots(path, {}).clear()
+    assert not path.exists()
+
+
+def test_snapshots_refuse_a_policy_with_episode_state(tmp_path: Path) -> None:
+    env = _env()
+    with pytest.raises(ValueError, match="no reset hook"):
+        evaluate(_policy, env, 1, reset=lambda done: None,
+                 snapshots=EvalSnapshots(tmp_path / "s.npz", {}))  # fmt: skip
+    with pytest.raises(ValueError, match="every_s = -1"):
+        EvalSnapshots(tmp_path / "s.npz", {}, every_s=-1)
