@@ -57,8 +57,9 @@ FLAGS = {
 """Library parameter names as the command line spells them, for error messages."""
 
 SNAPSHOT_EVERY_S = 300.0
-"""Seconds between the snapshots of a checkpoint's evaluation with --out (OUT.partial.npz):
-the same command, rerun after a cut, goes on from the last one (rl/eval_snapshot.py)."""
+"""Seconds between the snapshots of a checkpoint's evaluation with --out
+(OUT.partial.safetensors): the same command, rerun after a cut, goes on from the last one
+(rl/eval_snapshot.py)."""
 
 
 def _flags(message: str) -> str:
@@ -387,6 +388,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     # a subset reaches the factories only when asked for: the protocol plays every module
     limit = getattr(args, "modules", None)
     subset: dict[str, Any] = {} if limit is None else {"modules": limit}
+    out = getattr(args, "out", None)  # absent when a caller builds args without --out
     snapshots = None
     try:
         if args.episodes < 1:
@@ -481,16 +483,15 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             if hooks.recorder is None:
                 raise ValueError("--record: this env cannot record episodes")
             recorder = hooks.recorder(Path(record), getattr(args, "record_limit", None))
-        out = getattr(args, "out", None)  # absent when a caller builds args without --out
         if out is not None and run is not None and reset is None and recorder is None:
             if engine == "mujoco" and hasattr(env, "get_state"):
-                # a checkpoint's evaluation can take an hour: a cut one goes on (OUT.partial.npz)
+                # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
                 import torch
 
                 from rl.eval_snapshot import EvalSnapshots
 
                 snapshots = EvalSnapshots(
-                    Path(f"{out}.partial.npz"),
+                    Path(f"{out}.partial.safetensors"),
                     {
                         **head,
                         **getattr(base, "protocol", {}),
@@ -524,7 +525,6 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         "seed": args.seed,
         **res,
     }
-    out = getattr(args, "out", None)
     if out is not None:
         from assetgen.core.atomic_file import strict_json, write_json
 

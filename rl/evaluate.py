@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from rl.eval_snapshot import EvalSnapshots
 from rl.vec_env import VecEnv
+
+if TYPE_CHECKING:
+    from rl.eval_snapshot import EvalSnapshots
 
 Policy = Callable[[np.ndarray], np.ndarray]
 """obs (N, obs_dim) float32 -> actions (N, act_dim) in [-1, 1]."""

@@ -51,7 +51,7 @@ def _run(snapshots: EvalSnapshots | None, torch_seed: int) -> dict:
 
 def test_a_cut_evaluation_resumes_to_the_uncut_result(tmp_path: Path) -> None:
     key = {"run": "r", "seed": 1}
-    path = tmp_path / "eval.json.partial.npz"
+    path = tmp_path / "eval.json.partial.safetensors"
     whole = _run(None, torch_seed=0)
     assert 0 < whole["successes"] < whole["episodes"] and whole["truncation_rate"] > 0
     with pytest.raises(_Cut):
@@ -67,11 +67,15 @@ def test_a_cut_evaluation_resumes_to_the_uncut_result(tmp_path: Path) -> None:
 
 
 def test_a_snapshot_of_another_evaluation_is_set_aside(tmp_path: Path, capsys) -> None:
-    path = tmp_path / "e.partial.npz"
+    path = tmp_path / "e.partial.safetensors"
     with pytest.raises(_Cut):
         _run(_CutAfter(path, {"seed": 1}, saves=3), torch_seed=0)
     assert EvalSnapshots(path, {"seed": 2}).load() is None
     assert "another evaluation" in capsys.readouterr().err
+    assert EvalSnapshots(path, {"seed": 1}).load() is not None
+    path.write_bytes(path.read_bytes()[:-100])  # cut off mid-write by an older version
+    assert EvalSnapshots(path, {"seed": 1}).load() is None
+    assert "starting from the first episode" in capsys.readouterr().err
     EvalSnapshots(path, {}).clear()
     assert not path.exists()
 
