@@ -19,7 +19,7 @@ random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
 
 Every stage is skipped when its output exists, and a training cut short goes on from its last
 checkpoint (`--minutes` is the whole run's budget), an evaluation from its last snapshot
-(five minutes apart; DreamerV3's start over): the same command picks up where a stopped
+(five minutes apart): the same command picks up where a stopped
 session left it. Two lanes at a time on the 2-core machine, one torch thread each, as the
 published rows were run: two `--next` processes share the lanes (each claims the one it runs
 in a file beside the runs; a claim whose process has gone is taken over). A candidate row

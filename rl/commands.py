@@ -400,13 +400,14 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         if sequence and on_engine:
             raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")
         reset = None
+        policy_state = None
         wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
         if run is not None:
             import torch
 
             from rl.checkpoint import CheckpointError, read_counters
             from rl.report import variant_name
-            from rl.runner import load_agent, reset_hook
+            from rl.runner import acting_state_hooks, load_agent, reset_hook
             from rl.stack import StackObs
 
             threads = getattr(args, "threads", None)
@@ -440,6 +441,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 env = wrap(base)
             policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
             reset = reset_hook(agent)
+            policy_state = acting_state_hooks(agent)
             head: dict[str, Any] = {
                 "algo": meta["algo"],
                 "stack": meta["stack"],
@@ -483,7 +485,8 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             if hooks.recorder is None:
                 raise ValueError("--record: this env cannot record episodes")
             recorder = hooks.recorder(Path(record), getattr(args, "record_limit", None))
-        if out is not None and run is not None and reset is None and recorder is None:
+        saveable = reset is None or policy_state is not None
+        if out is not None and run is not None and saveable and recorder is None:
             if engine == "mujoco" and hasattr(env, "get_state"):
                 # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
                 import torch
@@ -514,6 +517,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             recorder=recorder,
             live=getattr(base, "set_live", None),
             snapshots=snapshots,
+            policy_state=policy_state if snapshots is not None else None,
         )
     except ValueError as e:
         return _error(str(e))

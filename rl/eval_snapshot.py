@@ -2,12 +2,12 @@
 
 The paper's protocol plays every module ten times; on contact-heavy policies that is an hour
 or more of a CPU core, and a stopped machine would otherwise lose all of it. Every `every_s`
-seconds `evaluate` hands its whole state (the env's, the counters, torch's RNG) to `save`;
-a later evaluation with the same `key` (checkpoint, dataset, seed, flags) loads it and ends
-with the same results, episode for episode, as an uncut one. The file sits beside the
-result (`OUT.partial.safetensors`) and is removed when the result is written. It is written
-as a training checkpoint is (rl/checkpoint.py: arrays as tensors, the rest as JSON, atomic,
-checked by its digest), so loading unpickles nothing.
+seconds `evaluate` hands its whole state (the env's, the counters, torch's RNG, a recurrent
+policy's latents) to `save`; a later evaluation with the same `key` (checkpoint, dataset,
+seed, flags) loads it and ends with the same results, episode for episode, as an uncut one.
+The file sits beside the result (`OUT.partial.safetensors`) and is removed when the result
+is written. It is written as a training checkpoint is (rl/checkpoint.py: arrays as tensors,
+the rest as JSON, atomic, checked by its digest), so loading unpickles nothing.
 """
 
 from __future__ import annotations

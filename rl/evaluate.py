@@ -25,6 +25,9 @@ if TYPE_CHECKING:
 Policy = Callable[[np.ndarray], np.ndarray]
 """obs (N, obs_dim) float32 -> actions (N, act_dim) in [-1, 1]."""
 
+PolicyState = tuple[Callable[[], dict[str, Any]], Callable[[dict[str, Any]], None]]
+"""(get, set) of a recurrent policy's per-env state, for snapshots."""
+
 
 class Recorder(Protocol):
     """Keeps episodes as they are played (sim/recording.py writes them for the preview)."""
@@ -59,6 +62,7 @@ def evaluate(
     recorder: Recorder | None = None,
     live: Callable[[np.ndarray | None], None] | None = None,
     snapshots: EvalSnapshots | None = None,
+    policy_state: PolicyState | None = None,
 ) -> dict[str, Any]:
     """Run `policy_fn` until every env has finished `episodes_per_env` episodes.
 
@@ -71,8 +75,9 @@ def evaluate(
     (`--record`). `live(mask)` (the env's set_live, when it has one) is told before every
     step which envs still have episodes to play, so the simulator may skip the others.
     `snapshots` (rl/eval_snapshot.py) saves the evaluation as it goes and resumes a saved
-    one, with the same results as an uncut run: for an env with get_state/set_state and a
-    policy whose only state is torch's RNG (no `reset`, no `recorder`).
+    one, with the same results as an uncut run: for an env with get_state/set_state, no
+    `recorder`, and a policy whose state is torch's RNG, plus, for one with a `reset` hook,
+    what `policy_state` = (get, set) saves and restores (Dreamer's acting state).
     Returns a JSON-ready dict:
         episodes                   N * episodes_per_env
         success_rate               successes / episodes
@@ -102,11 +107,13 @@ def evaluate(
     steps = 0
     saved = None
     if snapshots is not None:
-        if reset is not None or recorder is not None or not hasattr(env, "get_state"):
+        if (reset is not None and policy_state is None) or recorder is not None:
             raise ValueError(
-                "snapshots need an env with get_state/set_state and a policy without "
-                "episode state (no reset hook) or recorder"
+                "snapshots need a policy whose episode state can be saved (a reset hook "
+                "comes with policy_state) and no recorder"
             )
+        if not hasattr(env, "get_state"):
+            raise ValueError("snapshots need an env with get_state/set_state")
         saved = snapshots.load()
     if saved is not None:
         import torch
@@ -120,6 +127,8 @@ def evaluate(
         )
         t0 -= float(saved["seconds"])  # the wall time reported is the whole evaluation's
         torch.set_rng_state(torch.from_numpy(saved["torch_rng"]))
+        if policy_state is not None:
+            policy_state[1](saved["policy"])
     else:
         obs = env.reset(seed)
         if reset is not None:
@@ -175,6 +184,7 @@ def evaluate(
                         "steps": steps,
                         "seconds": time.perf_counter() - t0,
                         "torch_rng": torch.get_rng_state().numpy(),
+                        **({"policy": policy_state[0]()} if policy_state is not None else {}),
                     }
                 )
     finally:

@@ -140,6 +140,13 @@ def reset_hook(agent: Any) -> Callable[[np.ndarray], None] | None:
     return fn if callable(fn) else None
 
 
+def acting_state_hooks(agent: Any) -> tuple[Callable[[], Any], Callable[[Any], None]] | None:
+    """(acting_state, load_acting_state) of an agent with a recurrent state, else None: what
+    an evaluation's snapshot saves of the policy (rl/evaluate.py)."""
+    get, put = getattr(agent, "acting_state", None), getattr(agent, "load_acting_state", None)
+    return (get, put) if callable(get) and callable(put) else None
+
+
 def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
     """Rebuild a config dataclass from its JSON form (lists back to tuples)."""
     cls = ALGOS[algo]

@@ -9,9 +9,12 @@ import numpy as np
 import pytest
 import torch
 
+from rl.dreamer.agent import Dreamer
 from rl.eval_snapshot import EvalSnapshots
 from rl.evaluate import evaluate
+from rl.runner import acting_state_hooks, reset_hook
 from sim.expert import direct_expert_action
+from tests.test_dreamer import TINY
 from tests.test_sim_common import make_env, quiet
 
 
@@ -80,9 +83,44 @@ def test_a_snapshot_of_another_evaluation_is_set_aside(tmp_path: Path, capsys) -
     assert not path.exists()
 
 
+def _run_recurrent(snapshots: EvalSnapshots | None, torch_seed: int, restore: bool = True):
+    """An untrained DreamerV3 steering the expert: its actions depend on its recurrent state
+    and on latents drawn from torch's RNG."""
+    torch.manual_seed(0)
+    env = _env()
+    agent = Dreamer(env.obs_dim, env.act_dim, env.num_envs, TINY, seed=0)
+    torch.manual_seed(torch_seed)
+    hooks = acting_state_hooks(agent)
+    assert hooks is not None
+    if not restore:  # a resume that forgets the policy's state
+        hooks = (hooks[0], lambda state: None)
+
+    def policy(obs: np.ndarray) -> np.ndarray:
+        return direct_expert_action(obs) + 0.5 * agent.policy(obs, deterministic=False)
+
+    return evaluate(policy, env, 3, seed=1, live=env.set_live, reset=reset_hook(agent),
+                    snapshots=snapshots, policy_state=hooks)  # fmt: skip
+
+
+def test_a_recurrent_policys_evaluation_resumes_with_its_acting_state(tmp_path: Path) -> None:
+    key = {"run": "dreamer"}
+    path = tmp_path / "eval.json.partial.safetensors"
+    whole = _run_recurrent(None, torch_seed=0)
+    for restore in (True, False):
+        path.unlink(missing_ok=True)  # the resumed run saved itself to its last steps
+        with pytest.raises(_Cut):
+            _run_recurrent(_CutAfter(path, key, saves=60), torch_seed=0)
+        saved = EvalSnapshots(path, key).load()
+        assert saved is not None and set(saved["policy"]) >= {"deter", "stoch", "first"}
+        resumed = _run_recurrent(EvalSnapshots(path, key, every_s=0.0), 7, restore)
+        same = [resumed[k] == whole[k] for k in whole if k != "seconds"]
+        # restored, every field agrees; forgotten, the episodes after the cut differ
+        assert all(same) if restore else not all(same)
+
+
 def test_snapshots_refuse_a_policy_with_episode_state(tmp_path: Path) -> None:
     env = _env()
-    with pytest.raises(ValueError, match="no reset hook"):
+    with pytest.raises(ValueError, match="a reset hook comes with policy_state"):
         evaluate(_policy, env, 1, reset=lambda done: None,
                  snapshots=EvalSnapshots(tmp_path / "s.npz", {}))  # fmt: skip
     with pytest.raises(ValueError, match="every_s = -1"):

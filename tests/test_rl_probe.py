@@ -71,9 +71,10 @@ def test_probe_keeps_a_recurrent_agents_acting_state() -> None:
     before = agent.acting_state()
     make_probe(ToyEnv(5), attempts=1)(agent)  # 5 envs: the policy re-initialises its state
     after = agent.acting_state()
-    assert torch.equal(before[0].deter, after[0].deter)
-    assert torch.equal(before[0].stoch, after[0].stoch)
-    assert torch.equal(before[1], after[1]) and np.array_equal(before[2], after[2])
+    assert set(before) == set(after) == {"deter", "stoch", "prev_action", "first"}
+    for k in before:
+        assert np.array_equal(before[k], after[k]), k
+    assert not before["first"].any() and before["deter"].shape[0] == 3
 
 
 def test_run_with_probe_resumes_exactly(tmp_path) -> None:

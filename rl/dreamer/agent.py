@@ -92,18 +92,25 @@ class Dreamer:
         self._n_sums = 0
         self._init_state(num_envs)
 
-    def acting_state(self) -> tuple[State, torch.Tensor, np.ndarray]:
-        """A copy of the per-env acting state (h, z, previous action, first flags), for
-        `load_acting_state` after another use of the policy (rl/probe.py)."""
+    def acting_state(self) -> dict[str, np.ndarray]:
+        """A copy of the per-env acting state as arrays: the recurrent state (deter, stoch),
+        the previous action and the first-step flags; for `load_acting_state` after another
+        use of the policy (rl/probe.py) or in a resumed evaluation (rl/eval_snapshot.py)."""
         st = self.state
-        return (
-            State(st.deter.clone(), st.stoch.clone()),
-            self.prev_action.clone(),
-            self.first.copy(),
-        )
+        return {
+            "deter": st.deter.cpu().numpy().copy(),
+            "stoch": st.stoch.cpu().numpy().copy(),
+            "prev_action": self.prev_action.cpu().numpy().copy(),
+            "first": self.first.copy(),
+        }
 
-    def load_acting_state(self, saved: tuple[State, torch.Tensor, np.ndarray]) -> None:
-        self.state, self.prev_action, self.first = saved
+    def load_acting_state(self, saved: dict[str, np.ndarray]) -> None:
+        """Restore what `acting_state` returned (any number of envs)."""
+        # copies: the state is written in place (reset) and `saved` may be restored again
+        own = {k: self._t(np.array(saved[k], dtype=np.float32)) for k in ("deter", "stoch")}
+        self.state = State(own["deter"], own["stoch"])
+        self.prev_action = self._t(np.array(saved["prev_action"], dtype=np.float32))
+        self.first = np.asarray(saved["first"], dtype=bool).copy()
 
     def set_teacher(self, teacher: Callable[[np.ndarray], np.ndarray]) -> None:
         """Let `teacher` (obs (N, obs_dim) -> actions (N, act_dim) in [-1, 1]) play the
