@@ -52,7 +52,13 @@ class EvalSnapshots:
                 file=sys.stderr,
             )
             return None
-        return ckpt.unpack(doc["state"], tensors)
+        state = ckpt.unpack(doc["state"], tensors)
+        print(
+            f"{self.path}: resuming after {len(state['returns'])} episodes "
+            f"({float(state['seconds']):.0f} s of evaluation saved)",
+            file=sys.stderr,
+        )
+        return state
 
     def due(self) -> bool:
         """Whether every_s seconds have passed since the last snapshot (or the start)."""

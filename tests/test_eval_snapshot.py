@@ -76,6 +76,7 @@ def test_a_snapshot_of_another_evaluation_is_set_aside(tmp_path: Path, capsys) -
     assert EvalSnapshots(path, {"seed": 2}).load() is None
     assert "another evaluation" in capsys.readouterr().err
     assert EvalSnapshots(path, {"seed": 1}).load() is not None
+    assert "resuming after" in capsys.readouterr().err
     path.write_bytes(path.read_bytes()[:-100])  # cut off mid-write by an older version
     assert EvalSnapshots(path, {"seed": 1}).load() is None
     assert "starting from the first episode" in capsys.readouterr().err
