@@ -184,6 +184,15 @@ def add_train_parser(
         "that changes at every gradient step; default: no probe)",
     )
     p.add_argument(
+        "--checkpoint-minutes",
+        type=float,
+        default=5.0,
+        metavar="M",
+        help="also checkpoint after the first iteration M minutes past the last checkpoint, so "
+        "that a stopped machine costs at most about M minutes of training (default 5; raise "
+        "it where a checkpoint is slow to write, e.g. a replay of many GB)",
+    )
+    p.add_argument(
         "--probe-modules",
         type=int,
         default=64,
@@ -287,6 +296,10 @@ def train_main(
         keep = bool(getattr(args, "keep_dataset_physics", False))
         on_engine = _engine_kwargs(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
+        if not args.checkpoint_minutes > 0:
+            raise ValueError(
+                f"--checkpoint-minutes {args.checkpoint_minutes}: give a positive number of minutes"
+            )
         if probe_steps is not None:
             from rl.probe import make_probe
 
@@ -326,6 +339,7 @@ def train_main(
             overrides=overrides,
             probe=probe,
             probe_steps=probe_steps,
+            checkpoint_minutes=args.checkpoint_minutes,
         )
     except (ValueError, CheckpointError) as e:
         return _error(str(e))

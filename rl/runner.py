@@ -6,7 +6,9 @@ One iteration = `agent.steps_per_iteration` vector steps (PPO: a rollout of `hor
 then `agent.update`. Everything happens at iteration boundaries: a metrics row
 (out_dir/metrics.csv, TensorBoard in out_dir/tb when installed), and every
 `checkpoint_steps` env steps plus at the end a checkpoint (out_dir/checkpoint.safetensors,
-written atomically; see rl/checkpoint.py).
+written atomically; see rl/checkpoint.py). On an env with get_state/set_state, also one after
+the first iteration that ends `checkpoint_minutes` (5) after the last, so that a stopped
+machine costs minutes of training, not a whole checkpoint interval.
 
 Exact resume (an interrupted run resumed with --resume ends with the same weights as an
 uninterrupted one, on the same device and thread count) needs one of:
@@ -481,6 +483,9 @@ def export_policy(run: str | Path, out_dir: str | Path) -> dict[str, Any]:
 
 # ----------------------------------------------------------------------------- train
 
+CHECKPOINT_MINUTES = 5.0
+"""Wall-clock minutes between checkpoints on envs with get_state (besides checkpoint_steps)."""
+
 
 def train(
     algo: str,
@@ -502,6 +507,7 @@ def train(
     overrides: dict[str, Any] | None = None,
     probe: Callable[[Any], dict[str, float]] | None = None,
     probe_steps: int | None = None,
+    checkpoint_minutes: float | None = CHECKPOINT_MINUTES,
 ) -> dict[str, Any]:
     """Train `algo` ("ppo", "sac", "dreamer", "random") on `env` (the rl/vec_env.py contract).
 
@@ -518,10 +524,16 @@ def train(
     (ablations: {"bc_weight": 0.0}). probe: agent -> {"probe_success_rate", ...}, run
     every `probe_steps` env steps (rounded to iterations) and logged with that row: the
     frozen deterministic policy on fixed episodes (rl/probe.py), because the training
-    columns describe a policy that changes at every gradient step. Returns {"status":
+    columns describe a policy that changes at every gradient step. checkpoint_minutes: on an
+    env with get_state/set_state, a checkpoint at the end of the first iteration this long
+    after the last one as well (None: every checkpoint_steps only; an env without
+    get_state is re-seeded at each checkpoint, so there its timing must not depend on the
+    clock). Returns {"status":
     "done" | "nan" | "interrupted", "iterations", "env_steps", "seconds", "episodes",
     "checkpoint", "metrics" (the last row)}.
     """
+    if checkpoint_minutes is not None and checkpoint_minutes <= 0:
+        raise ValueError(f"checkpoint_minutes = {checkpoint_minutes}: give a positive number")
     setup = get_setup(preset, algo) if isinstance(preset, str) else preset
     config = replace(setup.config, **(overrides or {}))
     base_dim = env.obs_dim
@@ -608,6 +620,7 @@ def train(
     spi = agent.steps_per_iteration
     per_iter = n * spi
     ckpt_every = max(1, math.ceil(setup.checkpoint_steps / per_iter))
+    by_clock = 60.0 * checkpoint_minutes if stateful and checkpoint_minutes else math.inf
     if probe is not None and (probe_steps is None or probe_steps < 1):
         raise ValueError(f"probe_steps = {probe_steps}: give a positive number of env steps")
     probe_every = math.ceil(probe_steps / per_iter) if probe is not None and probe_steps else 0
@@ -622,6 +635,7 @@ def train(
     status, row = "done", {}
     last_saved = iteration if resume else None
     budget_spent = False
+    t_saved = time.perf_counter()
     try:
         while True:
             if steps is not None and env_steps >= steps:
@@ -668,9 +682,9 @@ def train(
                 row |= probe(agent)
             log.write(row)
             bar.update(per_iter, row)
-            if iteration % ckpt_every == 0:
+            if iteration % ckpt_every == 0 or time.perf_counter() - t_saved >= by_clock:
                 _save(path, meta, agent, iteration, env_steps, wall, stats, env, obs)
-                last_saved = iteration
+                last_saved, t_saved = iteration, time.perf_counter()
                 if not stateful:  # the re-seed a resumed run repeats (see module doc)
                     obs = env.reset(seed=env_seed(seed, iteration))
                     _episodes_restart(agent, n)

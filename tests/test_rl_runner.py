@@ -113,6 +113,26 @@ def test_stateful_env_resumes_exactly_from_any_iteration(tmp_path) -> None:
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
+def test_a_checkpoint_every_few_minutes_on_a_stateful_env(tmp_path) -> None:
+    """A run killed between its periodic checkpoints loses only what followed the last
+    clock checkpoint (here: every iteration), and still resumes to the uncut weights."""
+    full = _train("ppo", StatefulToyEnv(4), PPO_SETUP, tmp_path / "full", steps=256)
+    assert full["status"] == "done" and full["iterations"] == 8
+    cut = _train("ppo", Interrupt(StatefulToyEnv(4), 28), PPO_SETUP, tmp_path / "cut",
+                 steps=256, checkpoint_minutes=1e-9)  # fmt: skip
+    assert cut["status"] == "interrupted" and cut["iterations"] == 3
+    assert ckpt.load(tmp_path / "cut" / CHECKPOINT)[1]["counters"]["iteration"] == 3
+    _train("ppo", StatefulToyEnv(4), PPO_SETUP, tmp_path / "cut", steps=256, resume=True)
+    a, b = _weights(tmp_path / "full"), _weights(tmp_path / "cut")
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    # an env without get_state keeps its checkpoints on checkpoint_steps (iteration 2)
+    _train("ppo", Interrupt(ToyEnv(4), 28), PPO_SETUP, tmp_path / "plain", steps=256,
+           checkpoint_minutes=1e-9)  # fmt: skip
+    assert ckpt.load(tmp_path / "plain" / CHECKPOINT)[1]["counters"]["iteration"] == 2
+    with pytest.raises(ValueError, match="checkpoint_minutes = 0"):
+        _train("ppo", ToyEnv(4), PPO_SETUP, tmp_path / "bad", steps=64, checkpoint_minutes=0)
+
+
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_nan_loss_stops_and_keeps_last_good_checkpoint(algo, tmp_path, capsys) -> None:
     setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
@@ -249,6 +269,11 @@ def test_commands(tmp_path, capsys) -> None:
     )
     assert args.func(args) == 2
     assert "--curriculum-steps -1" in " ".join(capsys.readouterr().err.split())
+    args = parser.parse_args(
+        [*argv[:-2], "--out", str(tmp_path / "r3"), "--checkpoint-minutes", "0"]
+    )
+    assert args.func(args) == 2
+    assert "--checkpoint-minutes 0.0: give a positive" in " ".join(capsys.readouterr().err.split())
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
