@@ -201,13 +201,34 @@ def assembly_table() -> str:
     return "\n".join(rows) + "\n"
 
 
+def superseded_variants(page: Page) -> frozenset[str]:
+    """The variant names of the page's filed Table III lanes whose row a later candidate
+    superseded (benchmarks/table3.py's Row.superseded_by): the full table keeps them, the
+    README's leaves them out."""
+    import json
+
+    from benchmarks.table3 import ROWS
+    from rl.report import variant_name
+
+    names = set()
+    for run in page.run_paths():
+        row = ROWS.get(run.name.rsplit("-s", 1)[0])
+        if run.parent.name == "table3" and row is not None and row.superseded_by is not None:
+            meta = json.loads((run / "config.json").read_text())
+            names.add(variant_name(meta["algo"], int(meta.get("stack", 1)), meta.get("demos"),
+                                   meta.get("overrides")))  # fmt: skip
+    return frozenset(names)
+
+
 def page_table(page: Page, compact: bool = False) -> str:
     """The markdown table the page's inputs give now; compact: the README's short form."""
     from rl.report import compact_table, load_summary, markdown_table
 
     summary, _ = load_summary(page.run_paths(), page.baseline_paths(), page.screening)
     if compact:
-        return compact_table(summary, f"docs/results/{page.name}/table.md")
+        return compact_table(
+            summary, f"docs/results/{page.name}/table.md", superseded_variants(page)
+        )
     return markdown_table(summary, paper=not page.screening)
 
 

@@ -447,17 +447,20 @@ def markdown_table(summary: dict[str, Any], paper: bool = True) -> str:
     )
 
 
-def compact_table(summary: dict[str, Any], page: str) -> str:
+def compact_table(
+    summary: dict[str, Any], page: str, leave_out: frozenset[str] = frozenset()
+) -> str:
     """The README's short form of `markdown_table` (paper layout): test split only, a
     policy's sampled-action figure in its own row's cell rather than a row of its own, no
-    episode counts. Every filed lane then adds one line, not two, and the other splits stay
-    on `page` (a link), so the README keeps its size as Table III fills in."""
+    episode counts, and without the variants in `leave_out` (candidates a later one
+    superseded). Every filed lane then adds one line, not two, and the rest stays on `page`
+    (a link), so the README keeps its size as Table III fills in."""
     cells = summary["cells"]
     names = {v.removesuffix(SAMPLED) for v in set(cells) | set(summary["curves"])}
     head = ["agent", "seeds", "env steps", "wall clock", "test set", "sampled actions"]
     head += ["median time (test)", "paper test set", "paper median"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for v in _order(names | set(ROW_ORDER)):
+    for v in _order((names | set(ROW_ORDER)) - leave_out):
         start, median = _row_start(summary, v, "test")
         ref = PAPER_SUCCESS_PCT.get(v)
         values = [
@@ -472,8 +475,9 @@ def compact_table(summary: dict[str, Any], page: str) -> str:
     return "\n".join(lines) + (
         "\n\nSuccess with the mean action (the paper's protocol) and with sampled actions: "
         "mean ± std over seeds (no ± for one seed). Env steps, wall clock: a seed's training, "
-        "mean over the seeds. The other splits, episode counts and the paper's train split: "
-        f"[the full table]({page}). Paper: Orsula et al. 2024, Table III.\n"
+        "mean over the seeds. The other splits, episode counts, the paper's train split"
+        + (" and the candidates a later one superseded" if leave_out else "")
+        + f": [the full table]({page}). Paper: Orsula et al. 2024, Table III.\n"
     )
 
 

@@ -388,6 +388,10 @@ def test_the_readme_table_puts_sampled_actions_beside_the_mean_and_test_only(
     assert "[the full table](docs/results/x/table.md)" in table
     full = markdown_table(summarise(runs, []))
     assert "| SAC (sampled) |" in full and "| train set |" in full
+    # a superseded candidate stays on the full page only
+    short = compact_table(summarise(runs, []), "p.md", frozenset({"SAC"}))
+    assert "\n| SAC |" not in short and "\n| PPO |" in short
+    assert "superseded" in short and "superseded" not in table
 
 
 def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
