@@ -44,3 +44,36 @@ def test_failures_gather_on_the_parameter_that_causes_them(tiny_dataset, tmp_pat
     assert "--param 'no_such': the modules' parameters are" in capsys.readouterr().err
     with pytest.raises(ValueError, match="not in the dataset"):
         by_param({"999999": 1.0}, params, None)
+
+
+def test_seeds_pool_and_where_keeps_a_family(tiny_dataset, tmp_path, capsys) -> None:
+    params = module_params(tiny_dataset)
+    ids = sorted(params)
+    tilt = {m: params[m]["hole_tilt"] for m in ids}
+    cut = float(np.median(list(tilt.values())))
+    files = []
+    for seed, fail in enumerate((0.0, 0.5)):  # the tilted holes: 0 and 0.5, pooled 0.25
+        f = tmp_path / f"s{seed}.json"
+        per_module = {m: 1.0 if tilt[m] <= cut else fail for m in ids}
+        f.write_text(json.dumps({"per_module": per_module, "dataset_folder": str(tiny_dataset)}))
+        files.append(str(f))
+    assert main([*files, "--param", "hole_tilt"]) == 0
+    out = capsys.readouterr().out
+    assert "2 files pooled" in out and " 25.0 %" in out
+    # only the upright holes: every one succeeds
+    assert main([*files, "--where", f"hole_tilt=0:{cut}", "--param", "hole_tilt"]) == 0
+    out = capsys.readouterr().out
+    kept = sum(t <= cut for t in tilt.values())
+    assert f"{kept} modules where hole_tilt=0:{cut}, success 100.0 %" in out
+    for bad, says in (("no_such=1", "NAME one of the modules' parameters"),
+                      ("hole_tilt=flat", "is not a number"),
+                      ("hole_tilt=1:0", "LOW is above HIGH"),
+                      ("hole_tilt=9:10", "no evaluated module matches")):  # fmt: skip
+        with pytest.raises(SystemExit):
+            main([*files, "--where", bad])
+        assert says in capsys.readouterr().err, bad
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"per_module": {ids[0]: 1.0}, "dataset_folder": "x"}))
+    with pytest.raises(SystemExit):
+        main([files[0], str(other)])
+    assert "other modules than" in capsys.readouterr().err
