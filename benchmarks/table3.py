@@ -113,7 +113,8 @@ def random_file(results: Path, seed: int) -> Path:
 
 
 def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, str]]:
-    """(stage, mark) in order: "+" done, "~" begun (a training's checkpoint), "-" to do."""
+    """(stage, mark) in order: "+" done, "~" begun (a training's checkpoint, an
+    evaluation's snapshot), "-" to do."""
     if row == "random":
         return [("evaluate", "+" if random_file(results, seed).exists() else "-")]
     run, filed = run_dir(runs, row, seed), filed_dir(results, row, seed)
@@ -121,11 +122,29 @@ def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, st
     begun = (run / "checkpoint.safetensors").exists()
     marks = [("train", "+" if any(evaluated) else "~" if begun else "-")]
     marks += [
-        (f"evaluate {name}", "+" if ok else "-") for name, ok in zip(EVALS, evaluated, strict=True)
+        (f"evaluate {name}", "+" if ok else "~" if _snapshot(run / name).exists() else "-")
+        for name, ok in zip(EVALS, evaluated, strict=True)
     ]
     filed_ok = all((filed / f).exists() for f in (*RUN_FILES, *EVALS))
     marks.append(("file", "+" if filed_ok else "-"))
     return marks
+
+
+def _snapshot(out: Path) -> Path:
+    """Where `assetgen eval --out OUT` keeps its snapshot while it runs (rl/commands.py)."""
+    return out.with_name(out.name + ".partial.safetensors")
+
+
+def holder(runs: Path, row: str, seed: int) -> int | None:
+    """The pid of the live process that holds the lane's claim, else None."""
+    try:
+        pid = int((runs / f".{row}-s{seed}.claim").read_text() or 0)
+        os.kill(pid, 0)
+    except PermissionError:  # a live process of another user
+        return pid
+    except (OSError, ValueError):  # no claim, or its holder is gone
+        return None
+    return pid
 
 
 def lane(
@@ -243,7 +262,8 @@ def next_lanes(runs: Path, results: Path, run_lane, limit: int | None = None) ->
 
 
 def plan(runs: Path, results: Path = RESULTS) -> str:
-    """One line per row and seed: its stages, done (+), begun (~) or still to do (-)."""
+    """One line per row and seed: its stages, done (+), begun (~) or still to do (-), and
+    the process running it."""
     lines = []
     width = max(map(len, ROWS))
     for row in ROWS:
@@ -253,6 +273,9 @@ def plan(runs: Path, results: Path = RESULTS) -> str:
             later = ROWS[row].superseded_by
             if later and any(m != "+" for _, m in staged):
                 marks += f" (superseded by {later}: not in --next)"
+            pid = holder(runs, row, seed)
+            if pid is not None:
+                marks += f" (running: pid {pid})"
             lines.append(f"{row:{width}s} seed {seed}: {marks}")
     return "\n".join(lines)
 

@@ -107,6 +107,18 @@ def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_pat
     assert not (runs / ".random-s2.claim").exists() and not (runs / ".ppo-s0.claim").exists()
     assert (runs / ".random-s1.claim").exists()  # the live holder keeps its lane
     assert _claim(runs, "random", 1) is None
+    # --plan: who runs a lane, and an evaluation begun (its snapshot) beside one to do
+    (runs / "ppo-s1").mkdir()
+    (runs / "ppo-s1" / "checkpoint.safetensors").write_bytes(b"")
+    (runs / "ppo-s1" / "eval_test.json.partial.safetensors").write_bytes(b"")
+    (runs / ".ppo-s1.claim").write_text(str(os.getppid()))
+    (line,) = [
+        x for x in plan(runs, results).splitlines() if x.startswith("ppo ") and "seed 1" in x
+    ]
+    assert "~train ~evaluate eval_test.json -evaluate eval_test_sampled.json -file" in line
+    assert line.endswith(f"(running: pid {os.getppid()})")
+    rnd = [x for x in plan(runs, results).splitlines() if x.startswith("random ")]
+    assert ["running" in x for x in rnd] == [False, True, False]  # held by a live process: 1
 
 
 def test_next_leaves_the_seeds_of_a_superseded_candidate_and_plan_says_so(tmp_path) -> None:
