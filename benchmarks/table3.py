@@ -2,7 +2,8 @@
 
     python -m benchmarks.table3 ROW --seed S [--minutes 60] [--threads 1]
     python -m benchmarks.table3 --next            # the lanes still to do, one after another
-    python -m benchmarks.table3 --plan            # every row × seed, and what each still needs
+    python -m benchmarks.table3 --plan            # every row × seed: what each still needs,
+                                                  # which process runs it, how far it got
 
 ROW is one of ROWS (random, ppo, ppo-stack, sac, sac-stack, dreamer: the paper's; sac-symlog,
 sac-symlog-n3, sac-symlog-n3-gs05, sac-symlog-n3-gs05-g098: the best teacher-free candidates
@@ -19,11 +20,11 @@ random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
 
 Every stage is skipped when its output exists, and a training cut short goes on from its last
 checkpoint (`--minutes` is the whole run's budget), an evaluation from its last snapshot
-(five minutes apart): the same command picks up where a stopped
-session left it. Two lanes at a time on the 2-core machine, one torch thread each, as the
-published rows were run: two `--next` processes share the lanes (each claims the one it runs
-in a file beside the runs; a claim whose process has gone is taken over). A candidate row
-that a later one superseded is left out of `--next`; its seeds still run by name.
+(both five minutes apart): the same command picks up where a stopped session left it. Two
+lanes at a time on the 2-core machine, one torch thread each, as the published rows were
+run: two `--next` processes share the lanes (each claims the one it runs in a file beside
+the runs; a claim whose process has gone is taken over). A candidate row that a later one
+superseded is left out of `--next`; its seeds still run by name.
 """
 
 from __future__ import annotations
@@ -261,6 +262,29 @@ def next_lanes(runs: Path, results: Path, run_lane, limit: int | None = None) ->
     return done
 
 
+def progress(row: str, seed: int, runs: Path) -> str:
+    """How far the lane's begun stages are: its training's env steps and minutes (from the
+    checkpoint's header) and its evaluation's episodes (from the snapshot's); '' for none."""
+    from rl.checkpoint import CheckpointError, read_counters
+    from rl.eval_snapshot import snapshot_progress
+
+    run = run_dir(runs, row, seed)
+    parts = []
+    if (run / "checkpoint.safetensors").exists() and not any((run / n).exists() for n in EVALS):
+        try:
+            c = read_counters(run)
+            parts.append(
+                f"trained {c['env_steps'] / 1e6:.2f} M env steps, {c['wall_s'] / 60:.0f} min"
+            )
+        except (CheckpointError, KeyError):
+            pass
+    for name in EVALS:
+        got = snapshot_progress(_snapshot(run / name)) if not (run / name).exists() else None
+        if got is not None:
+            parts.append(f"{name}: {got['episodes']:.0f} episodes, {got['seconds'] / 60:.0f} min")
+    return "; ".join(parts)
+
+
 def plan(runs: Path, results: Path = RESULTS) -> str:
     """One line per row and seed: its stages, done (+), begun (~) or still to do (-), and
     the process running it."""
@@ -276,6 +300,9 @@ def plan(runs: Path, results: Path = RESULTS) -> str:
             pid = holder(runs, row, seed)
             if pid is not None:
                 marks += f" (running: pid {pid})"
+            if row != "random":
+                done = progress(row, seed, runs)
+                marks += f" [{done}]" if done else ""
             lines.append(f"{row:{width}s} seed {seed}: {marks}")
     return "\n".join(lines)
 

@@ -19,6 +19,20 @@ from pathlib import Path
 from typing import Any
 
 
+def snapshot_progress(path: Path) -> dict[str, float] | None:
+    """{"episodes", "seconds"} an evaluation's snapshot file holds, read from its header
+    alone (cheap at any size); None when there is no readable snapshot."""
+    from safetensors import SafetensorError, safe_open
+
+    try:
+        with safe_open(str(path), framework="pt") as f:
+            state = json.loads((f.metadata() or {}).get("json", "{}"))["state"]
+            episodes = f.get_slice(state["returns"]["__tensor__"]).get_shape()[0]
+        return {"episodes": float(episodes), "seconds": float(state["seconds"])}
+    except (SafetensorError, OSError, ValueError, RuntimeError, KeyError, TypeError):
+        return None
+
+
 class EvalSnapshots:
     """Where and how often an evaluation saves itself, and what it must match to resume.
 

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from rl.dreamer.agent import Dreamer
-from rl.eval_snapshot import EvalSnapshots
+from rl.eval_snapshot import EvalSnapshots, snapshot_progress
 from rl.evaluate import evaluate
 from rl.runner import acting_state_hooks, reset_hook
 from sim.expert import direct_expert_action
@@ -61,6 +61,9 @@ def test_a_cut_evaluation_resumes_to_the_uncut_result(tmp_path: Path) -> None:
         _run(_CutAfter(path, key, saves=340), torch_seed=0)
     saved = EvalSnapshots(path, key).load()
     assert saved is not None and 0 < len(saved["returns"]) < whole["episodes"]
+    progress = snapshot_progress(path)  # from the file's header (table3 --plan)
+    assert progress == {"episodes": len(saved["returns"]), "seconds": saved["seconds"]}
+    assert snapshot_progress(tmp_path / "none") is None
     assert 0 < saved["steps"] and "live" in saved["env"]  # cut in the parked tail
     # another torch seed: the snapshot's RNG state must replace it
     resumed = _run(EvalSnapshots(path, key, every_s=0.0), torch_seed=7)

@@ -108,15 +108,27 @@ def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_pat
     assert (runs / ".random-s1.claim").exists()  # the live holder keeps its lane
     assert _claim(runs, "random", 1) is None
     # --plan: who runs a lane, and an evaluation begun (its snapshot) beside one to do
-    (runs / "ppo-s1").mkdir()
-    (runs / "ppo-s1" / "checkpoint.safetensors").write_bytes(b"")
-    (runs / "ppo-s1" / "eval_test.json.partial.safetensors").write_bytes(b"")
+    import numpy as np
+
+    from rl import checkpoint as ckpt
+    from rl.eval_snapshot import EvalSnapshots
+
+    ckpt.save(runs / "ppo-s1" / "checkpoint.safetensors", {},
+              {"counters": {"env_steps": 1_230_000, "wall_s": 1800.0}})  # fmt: skip
+    snap = EvalSnapshots(runs / "ppo-s1" / "eval_test.json.partial.safetensors", {})
+    snap.save({"returns": np.zeros(640), "seconds": 600.0})
     (runs / ".ppo-s1.claim").write_text(str(os.getppid()))
     (line,) = [
         x for x in plan(runs, results).splitlines() if x.startswith("ppo ") and "seed 1" in x
     ]
     assert "~train ~evaluate eval_test.json -evaluate eval_test_sampled.json -file" in line
-    assert line.endswith(f"(running: pid {os.getppid()})")
+    assert f"(running: pid {os.getppid()})" in line
+    assert line.endswith("[trained 1.23 M env steps, 30 min; eval_test.json: 640 episodes, 10 min]")
+    (runs / "ppo-s1" / "checkpoint.safetensors").write_bytes(b"torn")  # unreadable: no figures
+    (line,) = [
+        x for x in plan(runs, results).splitlines() if x.startswith("ppo ") and "seed 1" in x
+    ]
+    assert "trained" not in line and "640 episodes" in line
     rnd = [x for x in plan(runs, results).splitlines() if x.startswith("random ")]
     assert ["running" in x for x in rnd] == [False, True, False]  # held by a live process: 1
 
