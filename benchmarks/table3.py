@@ -36,6 +36,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from rl.eval_snapshot import snapshot_path
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
 """Where lanes file their results: runs/table3/ROW-sS and baselines/random_test_sS.json."""
@@ -123,17 +125,12 @@ def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, st
     begun = (run / "checkpoint.safetensors").exists()
     marks = [("train", "+" if any(evaluated) else "~" if begun else "-")]
     marks += [
-        (f"evaluate {name}", "+" if ok else "~" if _snapshot(run / name).exists() else "-")
+        (f"evaluate {name}", "+" if ok else "~" if snapshot_path(run / name).exists() else "-")
         for name, ok in zip(EVALS, evaluated, strict=True)
     ]
     filed_ok = all((filed / f).exists() for f in (*RUN_FILES, *EVALS))
     marks.append(("file", "+" if filed_ok else "-"))
     return marks
-
-
-def _snapshot(out: Path) -> Path:
-    """Where `assetgen eval --out OUT` keeps its snapshot while it runs (rl/commands.py)."""
-    return out.with_name(out.name + ".partial.safetensors")
 
 
 def holder(runs: Path, row: str, seed: int) -> int | None:
@@ -279,7 +276,7 @@ def progress(row: str, seed: int, runs: Path) -> str:
         except (CheckpointError, KeyError):
             pass
     for name in EVALS:
-        got = snapshot_progress(_snapshot(run / name)) if not (run / name).exists() else None
+        got = snapshot_progress(snapshot_path(run / name)) if not (run / name).exists() else None
         if got is not None:
             parts.append(f"{name}: {got['episodes']:.0f} episodes, {got['seconds'] / 60:.0f} min")
     return "; ".join(parts)

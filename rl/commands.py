@@ -53,6 +53,7 @@ FLAGS = {
     "noise_scale": "--noise-scale",
     "num_envs": "--envs",
     "keep_physics=True": "--keep-dataset-physics",
+    "checkpoint_minutes": "--checkpoint-minutes",
 }
 """Library parameter names as the command line spells them, for error messages."""
 
@@ -296,10 +297,6 @@ def train_main(
         keep = bool(getattr(args, "keep_dataset_physics", False))
         on_engine = _engine_kwargs(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
-        if not args.checkpoint_minutes > 0:
-            raise ValueError(
-                f"--checkpoint-minutes {args.checkpoint_minutes}: give a positive number of minutes"
-            )
         if probe_steps is not None:
             from rl.probe import make_probe
 
@@ -505,10 +502,10 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
                 import torch
 
-                from rl.eval_snapshot import EvalSnapshots
+                from rl.eval_snapshot import EvalSnapshots, snapshot_path
 
                 snapshots = EvalSnapshots(
-                    Path(f"{out}.partial.safetensors"),
+                    snapshot_path(Path(out)),
                     {
                         **head,
                         **getattr(base, "protocol", {}),

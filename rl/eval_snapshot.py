@@ -19,6 +19,11 @@ from pathlib import Path
 from typing import Any
 
 
+def snapshot_path(out: Path) -> Path:
+    """Where the evaluation that writes `out` keeps its snapshot: OUT.partial.safetensors."""
+    return out.with_name(out.name + ".partial.safetensors")
+
+
 def snapshot_progress(path: Path) -> dict[str, float] | None:
     """{"episodes", "seconds"} an evaluation's snapshot file holds, read from its header
     alone (cheap at any size); None when there is no readable snapshot."""
