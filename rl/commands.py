@@ -528,7 +528,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
             recorder=recorder,
             live=getattr(base, "set_live", None),
             snapshots=snapshots,
-            policy_state=policy_state if snapshots is not None else None,
+            policy_state=policy_state,
         )
     except ValueError as e:
         return _error(str(e))
