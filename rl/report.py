@@ -516,9 +516,8 @@ def _draw_curves(ax: Any, curves: dict[str, Curve], colors: dict[str, Any]) -> N
         ax.plot(
             c.env_steps, 100 * c.mean, color=col, label=f"{v} ({c.runs} seed{'s' * (c.runs > 1)})"
         )
-        ax.fill_between(
-            c.env_steps, 100 * (c.mean - c.std), 100 * (c.mean + c.std), color=col, alpha=0.25
-        )
+        lo, hi = np.clip(c.mean - c.std, 0, 1), np.clip(c.mean + c.std, 0, 1)  # rates: 0–100 %
+        ax.fill_between(c.env_steps, 100 * lo, 100 * hi, color=col, alpha=0.25)
     if not any(c.runs for c in curves.values()):
         ax.text(0.5, 0.5, "no finished training episodes", ha="center", transform=ax.transAxes)
 
@@ -539,13 +538,20 @@ def plot_learning_curves(
 
     colors = colors or palette(set(curves) | set(wall_curves or {}))
     fig, axes = _figure(2 if wall_curves is not None else 1)
+    from matplotlib.ticker import FuncFormatter
+
     panels = [(axes[0] if wall_curves is not None else axes, curves, "environment steps")]
     if wall_curves is not None:
-        panels.append((axes[1], wall_curves, "wall-clock minutes of training"))
-    for ax, cs, xlabel in panels:
+        panels.append((axes[1], wall_curves, "wall-clock minutes"))
+    for ax, cs, over in panels:
         _draw_curves(ax, cs, colors)
+        if over == "environment steps":  # millions on the ticks, not a detached "1e6"
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x / 1e6:g}"))
+            xlabel = "environment steps (millions)"
+        else:
+            xlabel = "wall-clock minutes of training"
         ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(-2, 102))
-        ax.set_title(title if len(panels) == 1 else f"{title}, over {xlabel.split(' of ')[0]}")
+        ax.set_title(title if len(panels) == 1 else f"{title}, over {over}")
         ax.grid(alpha=0.3)
     handles, labels = panels[0][0].get_legend_handles_labels()
     fig.tight_layout()
