@@ -333,7 +333,11 @@ def eval_cell(evals: list[EvalResult]) -> Cell:
 
 
 def _order(names: set[str]) -> list[str]:
-    return [v for v in ROW_ORDER if v in names] + sorted(names - set(ROW_ORDER))
+    """The paper's rows first, the others sorted; a variant's sampled-action row right
+    after it, so that the two read side by side in tables and figures."""
+    bases = {v.removesuffix(SAMPLED) for v in names}
+    ordered = [v for v in ROW_ORDER if v in bases] + sorted(bases - set(ROW_ORDER))
+    return [n for v in ordered for n in (v, v + SAMPLED) if n in names]
 
 
 def summarise(runs: list[Run], baselines: list[EvalResult]) -> dict[str, Any]:

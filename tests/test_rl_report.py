@@ -388,6 +388,9 @@ def test_the_readme_table_puts_sampled_actions_beside_the_mean_and_test_only(
     assert "[the full table](docs/results/x/table.md)" in table
     full = markdown_table(summarise(runs, []))
     assert "| SAC (sampled) |" in full and "| train set |" in full
+    rows = [line.split(" |")[0] for line in full.splitlines() if line.startswith("| SAC")]
+    assert rows[:2] == ["| SAC", "| SAC (sampled)"]  # side by side, not after every row
+    assert full.index("| SAC (sampled) |") < full.index("| SAC-STACK |")
     # a superseded candidate stays on the full page only
     short = compact_table(summarise(runs, []), "p.md", frozenset({"SAC"}))
     assert "\n| SAC |" not in short and "\n| PPO |" in short
