@@ -539,11 +539,10 @@ def plot_learning_curves(
     colors: {variant: colour} (default: `palette` of these curves). wall_curves: the same
     over wall-clock minutes, drawn in a second panel to the right (same colours)."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
 
     colors = colors or palette(set(curves) | set(wall_curves or {}))
     fig, axes = _figure(2 if wall_curves is not None else 1)
-    from matplotlib.ticker import FuncFormatter
-
     panels = [(axes[0] if wall_curves is not None else axes, curves, "environment steps")]
     if wall_curves is not None:
         panels.append((axes[1], wall_curves, "wall-clock minutes"))
