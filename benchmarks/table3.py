@@ -18,7 +18,10 @@ run's config.json, metrics.csv and both evaluation files into docs/results/runs/
 where `python -m benchmarks.results_pages` reads them (the weights stay in runs/). The
 random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
 
-Every stage is skipped when its output exists, and a training cut short goes on from its last
+`--next` and `--plan` count a filed lane as done (a fresh clone has no runs/: `--next`
+does not train it again; naming the lane reruns it), a lane
+builds its splits from their specs in datasets/ when they are missing (seconds), every
+stage is skipped when its output exists, and a training cut short goes on from its last
 checkpoint (`--minutes` is the whole run's budget), an evaluation from its last snapshot
 (both five minutes apart): the same command picks up where a stopped session left it. Two
 lanes at a time on the 2-core machine, one torch thread each, as the published rows were
@@ -121,6 +124,10 @@ def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, st
     if row == "random":
         return [("evaluate", "+" if random_file(results, seed).exists() else "-")]
     run, filed = run_dir(runs, row, seed), filed_dir(results, row, seed)
+    if all((filed / f).exists() for f in (*RUN_FILES, *EVALS)):
+        # filed is done, whether or not its run folder (the weights) is still here: a
+        # fresh clone has no runs/ and must not train a filed lane again
+        return [(name, "+") for name in ("train", *(f"evaluate {n}" for n in EVALS), "file")]
     evaluated = [(run / name).exists() for name in EVALS]
     begun = (run / "checkpoint.safetensors").exists()
     marks = [("train", "+" if any(evaluated) else "~" if begun else "-")]
@@ -128,8 +135,7 @@ def stages(row: str, seed: int, runs: Path, results: Path) -> list[tuple[str, st
         (f"evaluate {name}", "+" if ok else "~" if snapshot_path(run / name).exists() else "-")
         for name, ok in zip(EVALS, evaluated, strict=True)
     ]
-    filed_ok = all((filed / f).exists() for f in (*RUN_FILES, *EVALS))
-    marks.append(("file", "+" if filed_ok else "-"))
+    marks.append(("file", "-"))
     return marks
 
 
@@ -175,6 +181,12 @@ def lane(
         return 0
     spec = ROWS[row]
     run = run_dir(runs, row, seed)
+    for split in (dataset, test):  # a fresh clone has the specs alone: build them (seconds)
+        if (
+            not (ROOT / "datasets" / split / "dataset.json").exists()
+            and (ROOT / "datasets" / f"{split}.json").exists()
+        ):
+            call(["sample", "--dataset", split, "--quiet"])
     minutes = spec.minutes if spec.minutes is not None else minutes
     train = ["train", "--algo", spec.algo, "--preset", preset, "--dataset", dataset,
              "--minutes", f"{minutes:g}",

@@ -146,3 +146,27 @@ def test_next_leaves_the_seeds_of_a_superseded_candidate_and_plan_says_so(tmp_pa
     marked = [line for line in lines if "not in --next" in line]
     assert marked and all(line.split()[0] in old for line in marked)
     assert len(marked) == 3 * len(old)  # nothing filed here: every seed of them is left
+
+
+def test_a_filed_lane_is_done_on_a_fresh_clone_without_its_run_folder(tmp_path) -> None:
+    from benchmarks.table3 import EVALS, RUN_FILES, next_lanes, stages
+
+    runs, results = tmp_path / "runs", tmp_path / "results"  # runs/: not there at all
+    filed = results / "runs/table3/ppo-s0"
+    filed.mkdir(parents=True)
+    for name in (*RUN_FILES, *EVALS):
+        (filed / name).write_text("{}")
+    assert [m for _, m in stages("ppo", 0, runs, results)] == ["+"] * 4
+    assert re.search(r"ppo +seed 0: \+train \+evaluate eval_test.json \+evaluate "
+                     r"eval_test_sampled.json \+file", plan(runs, results))  # fmt: skip
+    (filed / "eval_test_sampled.json").unlink()  # filed in part: the lane is still to do
+    assert [m for _, m in stages("ppo", 0, runs, results)] == ["-"] * 4
+    ran = []
+    next_lanes(runs, results, lambda row, seed: ran.append((row, seed)) or 0, limit=1)
+    assert ran == [("random", 0)]
+    for seed in (0, 1, 2):
+        (results / f"baselines/random_test_s{seed}.json").parent.mkdir(exist_ok=True)
+        (results / f"baselines/random_test_s{seed}.json").write_text("{}")
+    (filed / "eval_test_sampled.json").write_text("{}")
+    next_lanes(runs, results, lambda row, seed: ran.append((row, seed)) or 0, limit=1)
+    assert ran[-1] == ("ppo", 1)  # the filed seed 0 is not trained again
