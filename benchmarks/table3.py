@@ -1,7 +1,7 @@
 """Table III's teacher-free rows on this machine, one seed at a time: train, evaluate, file.
 
     python -m benchmarks.table3 ROW --seed S [--minutes 60] [--threads 1]
-    python -m benchmarks.table3 --next            # the lanes still to do, one after another
+    python -m benchmarks.table3 --next [--lanes N] # the lanes still to do, one after another
     python -m benchmarks.table3 --plan            # every row × seed: what each still needs,
                                                   # which process runs it, how far it got
 
@@ -18,21 +18,23 @@ run's config.json, metrics.csv and both evaluation files into docs/results/runs/
 where `python -m benchmarks.results_pages` reads them (the weights stay in runs/). The
 random row is its evaluation alone, seeded S, filed in docs/results/baselines/.
 
-`--next` and `--plan` count a filed lane as done (a fresh clone has no runs/: `--next`
-does not train it again; naming the lane reruns it), a lane
-builds its splits from their specs in datasets/ when they are missing (seconds), every
-stage is skipped when its output exists, and a training cut short goes on from its last
-checkpoint (`--minutes` is the whole run's budget), an evaluation from its last snapshot
-(both five minutes apart): the same command picks up where a stopped session left it. Two
-lanes at a time on the 2-core machine, one torch thread each, as the published rows were
-run: two `--next` processes share the lanes (each claims the one it runs in a file beside
-the runs; a claim whose process has gone is taken over). A candidate row that a later one
+Every stage is skipped when its output exists, a training cut short goes on from its last
+checkpoint (`--minutes` is the whole run's budget) and an evaluation from its last snapshot
+(both five minutes apart): the same command picks up where a stopped session left it. A
+filed lane is done for `--next` and `--plan` (a fresh clone has no runs/; naming the lane
+reruns it), and a lane builds its splits from their specs in datasets/ when they are missing
+(seconds). Two lanes at a time on the 2-core machine, one torch thread each, as the
+published rows were run: two `--next` processes share the lanes (each claims the one it runs
+in a file beside the runs; a claim whose process has gone is taken over). They train side by
+side and take turns to evaluate, since an evaluation's simulator threads use both cores;
+`--lanes 1` in each runs two lanes in about three hours. A candidate row that a later one
 superseded is left out of `--next`; its seeds still run by name.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shutil
 import sys
@@ -197,12 +199,37 @@ def lane(
         train += ["--set", kv]
     # always called: a finished run returns at once (its budget is spent), a cut one goes on
     call(train + (["--resume"] if (run / "checkpoint.safetensors").exists() else []))
-    for name, flags in EVALS.items():
-        if not (run / name).exists():
+    todo = {name: flags for name, flags in EVALS.items() if not (run / name).exists()}
+    with evaluation_turn(runs) if todo else contextlib.nullcontext():
+        for name, flags in todo.items():
             call(["eval", "--checkpoint", str(run), "--dataset", test, "--attempts", str(attempts),
                   "--threads", str(threads), *flags, "--out", str(run / name)])  # fmt: skip
     file_run(run, filed_dir(results, row, seed), {f: f for f in (*RUN_FILES, *EVALS)})
     return 0
+
+
+@contextlib.contextmanager
+def evaluation_turn(runs: Path):
+    """Hold the lanes' one evaluation turn (an advisory lock on runs/.evaluate.lock; the
+    kernel drops it when its process dies). An evaluation's simulator threads use every
+    core, so the lane beside waits its turn instead of halving it: the first lane to finish
+    training is filed whole an hour sooner, which a session that ends decides."""
+    runs.mkdir(parents=True, exist_ok=True)
+    with open(runs / ".evaluate.lock", "w") as f:
+        try:
+            import fcntl
+        except ImportError:  # Windows: no advisory locks, lanes evaluate side by side
+            yield
+            return
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print("waiting for the other lane's evaluation", flush=True)
+            fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def file_run(run: Path, filed: Path, files: dict[str, str]) -> None:
@@ -336,19 +363,28 @@ def main(argv: list[str] | None = None) -> int:
         help="run the lanes still to do, in order, skipping those another process holds "
         "(start two for the 2-core machine)",
     )
+    ap.add_argument(
+        "--lanes",
+        type=int,
+        default=None,
+        help="with --next: run at most this many lanes, then stop (1 in each of two "
+        "processes: two lanes filed in about three hours)",
+    )
     args = ap.parse_args(argv)
     if args.plan:
         print(plan(args.runs, args.results))
         return 0
     if args.minutes <= 0:
         ap.error(f"--minutes {args.minutes}: give a positive training budget")
+    if args.lanes is not None and args.lanes < 1:
+        ap.error(f"--lanes {args.lanes}: give at least 1 (or leave it out: every lane left)")
 
     def run_lane(row: str, seed: int) -> int:
         return lane(row, seed, args.minutes, args.threads, args.runs, args.dataset,
                     args.test, args.results, args.preset, args.attempts)  # fmt: skip
 
     if args.next:
-        ran = next_lanes(args.runs, args.results, run_lane)
+        ran = next_lanes(args.runs, args.results, run_lane, limit=args.lanes)
         print(f"{ran} lanes run; python -m benchmarks.table3 --plan says what is left")
         return 0
     if args.row is None or args.seed is None:

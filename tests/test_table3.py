@@ -170,3 +170,32 @@ def test_a_filed_lane_is_done_on_a_fresh_clone_without_its_run_folder(tmp_path) 
     (filed / "eval_test_sampled.json").write_text("{}")
     next_lanes(runs, results, lambda row, seed: ran.append((row, seed)) or 0, limit=1)
     assert ran[-1] == ("ppo", 1)  # the filed seed 0 is not trained again
+
+
+def test_lanes_take_turns_to_evaluate_and_lanes_must_be_positive(tmp_path) -> None:
+    import subprocess
+    import sys
+    import time
+
+    import pytest
+
+    from benchmarks.table3 import ROOT, evaluation_turn
+
+    runs = tmp_path / "runs"
+    other = (
+        "from pathlib import Path; from benchmarks.table3 import evaluation_turn\n"
+        f"with evaluation_turn(Path({str(runs)!r})): print('evaluating', flush=True)"
+    )
+    with evaluation_turn(runs):
+        beside = subprocess.Popen([sys.executable, "-c", other], cwd=ROOT, text=True,
+                                  stdout=subprocess.PIPE)  # fmt: skip
+        assert beside.stdout.readline().strip() == "waiting for the other lane's evaluation"
+        time.sleep(0.5)
+        assert beside.poll() is None  # still waiting while this turn is held
+    out, _ = beside.communicate(timeout=30)
+    assert out.strip() == "evaluating" and beside.returncode == 0
+    with evaluation_turn(runs):  # free again once both are done
+        pass
+    with pytest.raises(SystemExit) as bad:
+        main(["--next", "--lanes", "0", "--runs", str(runs)])
+    assert bad.value.code == 2
