@@ -27,7 +27,7 @@ reruns it), and a lane builds its splits from their specs in datasets/ when they
 published rows were run: two `--next` processes share the lanes (each claims the one it runs
 in a file beside the runs; a claim whose process has gone is taken over). They train side by
 side and take turns to evaluate, since an evaluation's simulator threads use both cores;
-`--lanes 1` in each runs two lanes in about three hours. A candidate row that a later one
+`--lanes 1` in each files two lanes in about two and a half hours. A candidate row that a later one
 superseded is left out of `--next`; its seeds still run by name.
 """
 
@@ -213,7 +213,7 @@ def evaluation_turn(runs: Path):
     """Hold the lanes' one evaluation turn (an advisory lock on runs/.evaluate.lock; the
     kernel drops it when its process dies). An evaluation's simulator threads use every
     core, so the lane beside waits its turn instead of halving it: the first lane to finish
-    training is filed whole an hour sooner, which a session that ends decides."""
+    training is filed about an hour sooner, before a stopped machine can cost it."""
     runs.mkdir(parents=True, exist_ok=True)
     with open(runs / ".evaluate.lock", "w") as f:
         try:
@@ -368,7 +368,7 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=None,
         help="with --next: run at most this many lanes, then stop (1 in each of two "
-        "processes: two lanes filed in about three hours)",
+        "processes: two lanes filed in about two and a half hours)",
     )
     args = ap.parse_args(argv)
     if args.plan:
