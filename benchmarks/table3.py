@@ -27,8 +27,8 @@ reruns it), and a lane builds its splits from their specs in datasets/ when they
 published rows were run: two `--next` processes share the lanes (each claims the one it runs
 in a file beside the runs; a claim whose process has gone is taken over). They train side by
 side and take turns to evaluate, since an evaluation's simulator threads use both cores;
-`--lanes 1` in each files two lanes in about two and a half hours. A candidate row that a later one
-superseded is left out of `--next`; its seeds still run by name.
+`--lanes 1` in each files two lanes in about two and a half hours. A candidate row that a
+later one superseded is left out of `--next`; its seeds still run by name.
 """
 
 from __future__ import annotations
@@ -183,11 +183,14 @@ def lane(
         return 0
     spec = ROWS[row]
     run = run_dir(runs, row, seed)
+    from assetgen.dataset.spec import DatasetError, resolve
+
     for split in (dataset, test):  # a fresh clone has the specs alone: build them (seconds)
-        if (
-            not (ROOT / "datasets" / split / "dataset.json").exists()
-            and (ROOT / "datasets" / f"{split}.json").exists()
-        ):
+        try:
+            folder, named = resolve(split)
+        except DatasetError:
+            continue  # neither a spec nor a folder: `assetgen train` says so
+        if named is not None and not (folder / "dataset.json").exists():
             call(["sample", "--dataset", split, "--quiet"])
     minutes = spec.minutes if spec.minutes is not None else minutes
     train = ["train", "--algo", spec.algo, "--preset", preset, "--dataset", dataset,

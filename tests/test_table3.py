@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import re
+from pathlib import Path
 
 from benchmarks.table3 import lane, main, plan
 
@@ -199,3 +200,38 @@ def test_lanes_take_turns_to_evaluate_and_lanes_must_be_positive(tmp_path) -> No
     with pytest.raises(SystemExit) as bad:
         main(["--next", "--lanes", "0", "--runs", str(runs)])
     assert bad.value.code == 2
+
+
+def test_a_lane_builds_a_missing_split_from_its_spec_and_only_then(tmp_path, monkeypatch):
+    import cli
+    from assetgen.dataset import spec as specs
+
+    specs_dir = tmp_path / "datasets"
+    specs_dir.mkdir()
+    (specs_dir / "tiny.json").write_text(json.dumps({"name": "tiny", "seed_start": 0, "count": 2}))
+    monkeypatch.setattr(specs, "SPECS_DIR", specs_dir)
+    calls = []
+
+    def fake_assetgen(argv: list[str]) -> int:  # the stages' files, none of their work
+        calls.append(argv)
+        out = Path(argv[argv.index("--out") + 1]) if "--out" in argv else None
+        if argv[0] == "sample":
+            (specs_dir / "tiny").mkdir()
+            (specs_dir / "tiny" / "dataset.json").write_text("{}")
+        elif argv[0] == "train":
+            out.mkdir(parents=True, exist_ok=True)
+            for name in ("config.json", "metrics.csv", "checkpoint.safetensors"):
+                (out / name).write_text("{}")
+        else:
+            out.write_text("{}")
+        return 0
+
+    monkeypatch.setattr(cli, "main", fake_assetgen)
+    kw = dict(minutes=1, threads=1, runs=tmp_path / "runs", dataset="tiny", test="tiny",
+              results=tmp_path / "results")  # fmt: skip
+    assert lane("ppo", 0, **kw) == 0
+    assert [c[0] for c in calls] == ["sample", "train", "eval", "eval"]
+    assert calls[0] == ["sample", "--dataset", "tiny", "--quiet"]  # once for both splits
+    calls.clear()
+    assert lane("ppo", 1, **kw) == 0
+    assert [c[0] for c in calls] == ["train", "eval", "eval"]  # built: not again
