@@ -20,6 +20,7 @@ from dataclasses import replace
 
 from assetgen.core.atomic_file import write_json
 from assetgen.core.mujoco_config import physics_for
+from assetgen.core.recorded_path import recorded_path
 from assetgen.dataset.reader import Dataset
 from rl.evaluate import evaluate
 from sim.assets import dataset_root, load_dataset
@@ -57,7 +58,12 @@ def run(dataset: str, agents: list[str], attempts: int, modules: int | None, fac
         row["median_change"] = (
             row["median_time_to_success_s"] / ref["median_time_to_success_s"] - 1.0
         )
-    return {"dataset": str(root), "modules": len(assets), "attempts": attempts, "rows": rows}
+    return {
+        "dataset": recorded_path(root),
+        "modules": len(assets),
+        "attempts": attempts,
+        "rows": rows,
+    }
 
 
 def main() -> None:

@@ -387,6 +387,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     JSON line; args.out receives the JSON."""
     import numpy as np
 
+    from assetgen.core.recorded_path import recorded_path
     from rl.evaluate import evaluate
 
     run = getattr(args, "run", None)
@@ -458,7 +459,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 "stack": meta["stack"],
                 "demos": meta.get("demos"),
                 "overrides": meta.get("overrides", {}),
-                "run": str(run),
+                "run": recorded_path(run),
                 # which training state was evaluated: a resumed run's older evaluation is stale
                 "trained_env_steps": read_counters(run).get("env_steps"),
                 "policy": "stochastic" if stochastic else "deterministic",
@@ -488,7 +489,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 record_limit=getattr(args, "record_limit", None), keep_physics=keep,
                 **subset,
             )  # fmt: skip
-            return _sequence_out(args, {**head, "dataset": str(args.dataset),
+            return _sequence_out(args, {**head, "dataset": recorded_path(args.dataset),
                                         "attempts": args.episodes, "seed": args.seed, **res},
                                  name)  # fmt: skip
         recorder = None
@@ -509,7 +510,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                     {
                         **head,
                         **getattr(base, "protocol", {}),
-                        "dataset": str(args.dataset),
+                        "dataset": recorded_path(args.dataset),
                         "attempts": args.episodes,
                         "seed": args.seed,
                         "envs": args.envs,
@@ -534,7 +535,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         return _error(str(e))
     res = {
         **head,
-        "dataset": str(args.dataset),
+        "dataset": recorded_path(args.dataset),
         **getattr(base, "protocol", {}),
         "attempts": args.episodes,
         "seed": args.seed,

@@ -44,6 +44,7 @@ from mujoco import rollout
 
 from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import LEGACY_PHYSICS, PHYSICS_VERSION, physics_for
+from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
 from sim.assets import ModuleAsset
 from sim.config import PhysicsConfig, TaskConfig
@@ -810,7 +811,7 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
         write_json(
             args.json,
             {
-                "dataset": str(root),
+                "dataset": recorded_path(root),
                 "source": args.source,
                 "engine": engine,
                 "physics": asdict(physx)

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from assetgen.core.mujoco_config import physics_for, physics_from_record
+from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim import step_kernel as K
 from sim import task as T
@@ -690,7 +691,7 @@ def make_eval_env(
     )
     ds = Dataset(root)
     env.protocol = {
-        "dataset_folder": str(root),
+        "dataset_folder": recorded_path(root),
         "dataset_hash": content_hash(ds.records),
         "control_dt": env.control_dt,
         "noise_scale": noise_scale,

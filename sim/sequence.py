@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from assetgen.core.recorded_path import recorded_path
 from sim import task as T
 from sim.assembly_assets import AssemblyStages
 from sim.assets import AssetError
@@ -336,7 +337,7 @@ def evaluate_assembly_dataset(
         record_limit=record_limit,
     )  # fmt: skip
     return {
-        "dataset_folder": str(root),
+        "dataset_folder": recorded_path(root),
         "dataset_hash": content_hash(ds.records),
         "family": ds.spec.family,
         "control_dt": config.control_dt,

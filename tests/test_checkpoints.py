@@ -21,7 +21,7 @@ def test_something_is_shipped() -> None:
 
 
 @pytest.mark.parametrize("folder", SHIPPED, ids=[p.name for p in SHIPPED])
-def test_shipped_policy_evaluates(folder: Path, tmp_path: Path) -> None:
+def test_shipped_policy_evaluates(folder: Path, tmp_path: Path, monkeypatch) -> None:
     import torch
 
     from cli import main
@@ -36,9 +36,14 @@ def test_shipped_policy_evaluates(folder: Path, tmp_path: Path) -> None:
     out = tmp_path / "eval.json"
     argv = ["eval", "--checkpoint", str(folder), "--dataset", str(sim_dataset()),
             "--attempts", "1", "--out", str(out)]  # fmt: skip
+    monkeypatch.chdir(ROOT)
     assert main(argv) == 0
     res = json.loads(out.read_text())
     assert res["episodes"] == 4 and res["policy"] == "deterministic"
+    # paths as a clone reads them: the run inside the repository relative to it, the
+    # dataset outside it whole (assetgen/core/recorded_path.py)
+    assert res["run"] == f"checkpoints/{folder.name}"
+    assert res["dataset_folder"] == str(sim_dataset()) and res["dataset"] == str(sim_dataset())
     assert res["finished_envs"] == "parked"
     # the shipped evaluation files are of the real splits, under the paper's protocol; a
     # robustness file (scaled noise, a tighter clearance) says so in its name
