@@ -1,6 +1,7 @@
-"""Result files name paths as a clone can read them: relative to the repository root where
-the path lies inside it (assetgen/core/recorded_path.py), and no filed result in the
-repository names a folder of the machine it was measured on."""
+"""Result files name paths as a clone can read them: relative to the working directory (the
+repository root, where its commands run) when the path lies inside it
+(assetgen/core/recorded_path.py), and no filed result in the repository names a folder of the
+machine it was measured on."""
 
 from __future__ import annotations
 
@@ -14,8 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_inside_is_relative_outside_is_absolute(tmp_path: Path) -> None:
-    (tmp_path / "repo" / "datasets").mkdir(parents=True)
-    repo = tmp_path / "repo"
+    repo = tmp_path / "repo"  # the rule is about names: nothing need exist
     assert recorded_path(repo / "datasets" / "test", repo) == "datasets/test"
     assert recorded_path(repo / "runs" / ".." / "datasets", repo) == "datasets"
     assert recorded_path(repo, repo) == "."
