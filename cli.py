@@ -15,7 +15,7 @@ from rich.table import Table
 console = Console(stderr=False)
 
 EXPERT_NAMES = ("scripted", "scripted-fast", "scripted-direct")
-"""The built-in scripted experts (`--agent`, `--demos`): the keys of sim.expert.EXPERTS,
+"""The built-in scripted experts (`--agent`, `--demos`): the keys of sim.task.expert.EXPERTS,
 named here so that building the parser imports no simulator."""
 
 
@@ -234,9 +234,9 @@ def _eval_hooks():
 
     from rl.commands import EvalHooks
     from sim import make_eval_env
-    from sim.expert import EXPERTS
-    from sim.recording import EpisodeRecorder, env_labels
-    from sim.sequence import evaluate_assembly_dataset, is_assembly_dataset
+    from sim.task.expert import EXPERTS
+    from evaluation.recording import EpisodeRecorder, env_labels
+    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
 
     def random_agent(seed: int):
         rng = np.random.default_rng(seed)
@@ -269,8 +269,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "sim":
         from assetgen.dataset.spec import DatasetError
-        from sim.assets import AssetError
-        from sim.bench import bench_main
+        from sim.assets.loading import AssetError
+        from sim.bench.throughput import bench_main
 
         try:
             return bench_main(args)
@@ -283,19 +283,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
         )
     if args.what == "contacts":
         from assetgen.dataset.spec import DatasetError
-        from sim.assets import AssetError
-        from sim.contact_stress import main as contacts_main
+        from sim.assets.loading import AssetError
+        from sim.bench.stress import main as contacts_main
 
         if not args.target:
             return _err("bench contacts needs a dataset: assetgen bench contacts DATASET")
         args.dataset = args.target
         try:
             if args.sim == "mujoco-warp":
-                from sim.contact_stress_warp import stress_warp
+                from sim.bench.stress_warp import stress_warp
 
                 return contacts_main(args, warp_stress=stress_warp)
             if args.sim == "physx":
-                from sim.contact_stress_physx import stress_physx
+                from sim.bench.stress_physx import stress_physx
 
                 return contacts_main(args, stress_physx)
             return contacts_main(args)
@@ -303,9 +303,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return _err(str(e))
     if args.what == "load":
         from assetgen.dataset.spec import DatasetError, resolve
-        from sim.assets import AssetError
-        from sim.bench_build import bench_build
-        from sim.bench_load import bench_load
+        from sim.assets.loading import AssetError
+        from sim.bench.build import bench_build
+        from sim.bench.load import bench_load
 
         try:
             root = resolve(args.dataset)[0]
@@ -527,8 +527,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _train_env(*args, **kwargs):
     # the simulator (MuJoCo, with its GL bindings: ~0.3 s) is imported when a command uses
     # it, not by every command's parser: `assetgen sample` is timed whole
-    if kwargs.get("engine") == "mujoco-warp":  # the task on the device too (sim/warp_env.py)
-        from sim.warp_env import make_device_train_env
+    if kwargs.get("engine") == "mujoco-warp":  # the task on the device too (sim/engines/warp/env.py)
+        from sim.engines.warp.env import make_device_train_env
 
         return make_device_train_env(*args, **kwargs)
     from sim import make_train_env
@@ -543,7 +543,7 @@ def _probe_env(dataset: str, modules: int, keep_physics: bool = False, **engine)
 
 
 def _expert(name: str):
-    from sim.expert import EXPERTS
+    from sim.task.expert import EXPERTS
 
     return EXPERTS[name]
 
@@ -594,7 +594,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         if getattr(args, "sim", None) == "mujoco-warp":
-            from sim.warp_batch import require_gpu
+            from sim.engines.warp.batch import require_gpu
 
             try:  # before any env is built: without a GPU Warp would run on the CPU
                 require_gpu(bool(getattr(args, "allow_cpu", False)))

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--expert", default="scripted-direct", help="the scripted agent beside it")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
-    from sim.expert import EXPERTS
+    from sim.task.expert import EXPERTS
 
     if args.modules < 1:
         p.error(f"--modules {args.modules}: give at least 1")

@@ -18,7 +18,7 @@ import numpy as np
 
 from assetgen.core.stl import read_stl_mm
 from assetgen.dataset.spec import resolve
-from sim.assets import _frame
+from sim.assets.loading import _frame
 
 COLOURS = {"base": (0.72, 0.74, 0.78), "profile": (0.85, 0.55, 0.25), "bolt": (0.35, 0.5, 0.8)}
 

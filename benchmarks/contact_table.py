@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sim.contact_stress import targets
+from sim.bench.stress import targets
 
 
 def _pct(s: dict, key: str) -> str:

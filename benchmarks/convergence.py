@@ -22,10 +22,10 @@ from assetgen.core.atomic_file import write_json
 from assetgen.core.mujoco_config import physics_for
 from assetgen.core.recorded_path import recorded_path
 from assetgen.dataset.reader import Dataset
-from rl.evaluate import evaluate
-from sim.assets import dataset_root, load_dataset
+from evaluation.protocol import evaluate
+from sim.assets.loading import dataset_root, load_dataset
 from sim.env import PegInHoleVecEnv, eval_config
-from sim.expert import EXPERTS
+from sim.task.expert import EXPERTS
 
 
 def run(dataset: str, agents: list[str], attempts: int, modules: int | None, factors: list[int]):

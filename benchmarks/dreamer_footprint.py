@@ -25,7 +25,7 @@ import torch
 
 from rl.dreamer.agent import Dreamer
 from rl.presets import get_setup
-from sim import task as T
+from sim.task import rules as T
 
 
 def _rss_mb() -> float:

@@ -6,7 +6,7 @@ PPO a few 1e5, DreamerV3 ~1e4), on CPU.
                                 [--episodes 20] [--out DIR]
 
 Trains with the settings below (PENDULUM) through the shared runner, then evaluates
-the deterministic policy on `--episodes` fresh episodes (rl/evaluate.py); prints the figures
+the deterministic policy on `--episodes` fresh episodes (evaluation/protocol.py); prints the figures
 and, last, one JSON line.
 """
 
@@ -22,7 +22,7 @@ from pathlib import Path
 import torch
 
 from rl.dreamer.config import DreamerConfig
-from rl.evaluate import evaluate
+from evaluation.protocol import evaluate
 from rl.gym_vec import GymVecEnv
 from rl.ppo import PPOConfig
 from rl.presets import Setup

@@ -41,7 +41,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from rl.eval_snapshot import snapshot_path
+from evaluation.snapshots import snapshot_path
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -305,7 +305,7 @@ def progress(row: str, seed: int, runs: Path) -> str:
     """How far the lane's begun stages are: its training's env steps and minutes (from the
     checkpoint's header) and its evaluation's episodes (from the snapshot's); '' for none."""
     from rl.checkpoint import CheckpointError, read_counters
-    from rl.eval_snapshot import snapshot_progress
+    from evaluation.snapshots import snapshot_progress
 
     run = run_dir(runs, row, seed)
     parts = []

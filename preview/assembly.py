@@ -9,7 +9,7 @@ collides (from `assembly.xml`) can be shown instead of the surfaces, and each st
 entrance and bottom frames. Reads only the module's files.
 
 An attempt recorded by `assetgen eval --dataset <assembly dataset> --record DIR` (one .npz,
-sim/sequence.py's save_sequence) replays across its stages: a time slider over every stage's
+evaluation/sequence.py's save_sequence) replays across its stages: a time slider over every stage's
 steps, the earlier parts where that attempt pressed them home.
 """
 
@@ -115,7 +115,7 @@ class AssemblyView:
 
 @dataclass
 class SequenceEpisode:
-    """A recorded attempt (sim/sequence.py's save_sequence) on one timeline: the stages'
+    """A recorded attempt (evaluation/sequence.py's save_sequence) on one timeline: the stages'
     steps one after another."""
 
     assembly_id: str

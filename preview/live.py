@@ -5,12 +5,12 @@ episode recordings; it knows nothing of viser. After every control step (and at 
 spawn) it calls `on_step(LiveFrame)`; when the policy fails (NaN actions) it stops and calls
 `on_error(text)`. The server draws both.
 
-The env is the evaluation task (`sim.config.EVAL_CONFIG`: observation and action noise on,
+The env is the evaluation task (`sim.task.config.EVAL_CONFIG`: observation and action noise on,
 full spawn ranges): the policy sees what it would see in `assetgen eval`. Real time: each
 control step takes `control_dt` of wall time, or longer where the machine is slower.
 
 Every episode played is written to the recording folder as `live_NNNNN_<module>.npz` in the
-format of sim/recording.py (with `dt`), loadable with the viewer's "Load episode"; one cut
+format of evaluation/recording.py (with `dt`), loadable with the viewer's "Load episode"; one cut
 short (new spawn, another module, the viewer closing) is written too, as no success.
 
 This module, rl, torch and sim are imported only when a policy is given: the viewer itself
@@ -105,7 +105,7 @@ def load_policy(path: str | Path) -> tuple[Any, dict[str, Any]]:
     actions of another size (naming the checkpoint's and the task's)."""
     from rl.checkpoint import CheckpointError
     from rl.runner import load_agent
-    from sim.task import ACT_DIM, OBS_DIM
+    from sim.task.rules import ACT_DIM, OBS_DIM
 
     ckpt = find_checkpoint(path)
     try:
@@ -202,8 +202,8 @@ class LivePolicy:
     def set_module(self, module_dir: str | Path) -> LiveFrame:
         """Play the module in `module_dir` (a no-op when it is the one played): a new env, and
         a spawn shown. PreviewError when the simulator cannot load the module."""
-        from sim.assets import AssetError, load_module
-        from sim.config import EVAL_CONFIG
+        from sim.assets.loading import AssetError, load_module
+        from sim.task.config import EVAL_CONFIG
         from sim.env import PegInHoleVecEnv
 
         module_dir = Path(module_dir)
@@ -419,7 +419,7 @@ class LivePolicy:
     # ------------------------------------------------------------------ recordings
 
     def _record(self, success: bool) -> Path:
-        from sim.recording import save_episode
+        from evaluation.recording import save_episode
 
         assert self.module_id is not None and self._spawn_pose is not None
         path = self.record_dir / f"live_{self._next_file:05d}_{self.module_id}.npz"

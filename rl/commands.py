@@ -60,7 +60,7 @@ FLAGS = {
 SNAPSHOT_EVERY_S = 300.0
 """Seconds between the snapshots of a checkpoint's evaluation with --out
 (OUT.partial.safetensors): the same command, rerun after a cut, goes on from the last one
-(rl/eval_snapshot.py)."""
+(evaluation/snapshots.py)."""
 
 
 def _flags(message: str) -> str:
@@ -154,7 +154,7 @@ def add_train_parser(
         type=float,
         metavar="SHARE",
         help="draw SHARE (in (0, 1]) of the next modules weighted by their recent failure "
-        "rate instead of in turn (prioritized level replay; sim/module_replay.py)",
+        "rate instead of in turn (prioritized level replay; sim/task/module_replay.py)",
     )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument(
@@ -370,7 +370,7 @@ class EvalHooks:
     labels: Callable[[Any], list[str]] | None = None
     """env -> what each env plays (its module id), for per-module results."""
     recorder: Callable[[Path, int | None], Any] | None = None
-    """(folder, limit) -> a recorder of episodes (rl/evaluate.py's Recorder)."""
+    """(folder, limit) -> a recorder of episodes (evaluation/protocol.py's Recorder)."""
     policies: dict[str, str] = field(default_factory=dict)
     """Built-in agent -> "deterministic" or "stochastic" (what its actions are)."""
     is_sequence: Callable[[str], bool] | None = None
@@ -378,17 +378,17 @@ class EvalHooks:
     run_sequence: Callable[..., dict[str, Any]] | None = None
     """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=, record=,
     record_limit=, keep_physics=) -> results per stage and for the whole sequence
-    (sim/sequence.py)."""
+    (evaluation/sequence.py)."""
 
 
 def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
     """`assetgen eval`: the paper's protocol for a built-in agent (args.agent) or a trained
-    checkpoint (args.run), through the one loop of rl/evaluate.py. Prints a short table or a
+    checkpoint (args.run), through the one loop of evaluation/protocol.py. Prints a short table or a
     JSON line; args.out receives the JSON."""
     import numpy as np
 
     from assetgen.core.recorded_path import recorded_path
-    from rl.evaluate import evaluate
+    from evaluation.protocol import evaluate
 
     run = getattr(args, "run", None)
     stochastic = bool(getattr(args, "stochastic", False))
@@ -503,7 +503,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
                 # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
                 import torch
 
-                from rl.eval_snapshot import EvalSnapshots, snapshot_path
+                from evaluation.snapshots import EvalSnapshots, snapshot_path
 
                 snapshots = EvalSnapshots(
                     snapshot_path(Path(out)),

@@ -1,7 +1,7 @@
 """An env on torch tensors seen through numpy arrays, for the agents and wrappers that take
 the rl/vec_env.py contract's arrays.
 
-An env whose states live on a GPU (sim/warp_env.py, `tensor_io = True`) takes and returns
+An env whose states live on a GPU (sim/engines/warp/env.py, `tensor_io = True`) takes and returns
 torch tensors on its device, so that an agent on that device (PPO) steps it without a copy
 through the host. Every other consumer (SAC, DreamerV3, the observation stack, the scripted
 agents) gets it through this view: actions go down, observations, rewards, flags and the

@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from rl.evaluate import evaluate
+from evaluation.protocol import evaluate
 from rl.runner import reset_hook
 from rl.stack import StackObs
 

@@ -1,7 +1,7 @@
 """The random agent: actions uniform in [-1, 1], independent of the observation.
 
 `RandomAgent(act_dim, seed)` is a policy (obs (N, obs_dim) -> actions (N, act_dim)) for
-`rl.evaluate.evaluate`; it also speaks the runner's agent interface, so
+`evaluation.protocol.evaluate`; it also speaks the runner's agent interface, so
 `assetgen train --algo random` logs the baseline's returns and success rate.
 """
 

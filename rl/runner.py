@@ -90,7 +90,7 @@ class Agent(Protocol):
     """What the runner needs of an algorithm (PPO, SAC, Dreamer, RandomAgent).
 
     A recurrent agent (Dreamer) also has `reset(mask (N,) bool)`: new episodes start where
-    mask is True. The runner calls it after every env.reset, rl/evaluate.py after each
+    mask is True. The runner calls it after every env.reset, evaluation/protocol.py after each
     step; stateless agents need not define it (see `reset_hook`).
     """
 
@@ -144,7 +144,7 @@ def reset_hook(agent: Any) -> Callable[[np.ndarray], None] | None:
 
 def acting_state_hooks(agent: Any) -> tuple[Callable[[], Any], Callable[[Any], None]] | None:
     """(acting_state, load_acting_state) of an agent with a recurrent state, else None: what
-    an evaluation's snapshot saves of the policy (rl/evaluate.py)."""
+    an evaluation's snapshot saves of the policy (evaluation/protocol.py)."""
     get, put = getattr(agent, "acting_state", None), getattr(agent, "load_acting_state", None)
     return (get, put) if callable(get) and callable(put) else None
 
@@ -343,7 +343,7 @@ def env_physics(env: Any) -> dict[str, Any] | None:
 
 
 def env_curriculum(env: Any) -> Any | None:
-    """The success-gated curriculum of `env` (through wrappers; sim/curriculum.py), whose
+    """The success-gated curriculum of `env` (through wrappers; sim/task/curriculum.py), whose
     level the metrics log as curriculum_scale, or None."""
     while env is not None:
         found = getattr(env, "curriculum", None)

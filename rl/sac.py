@@ -41,7 +41,7 @@ class SACConfig:
     """LayerNorm before every hidden activation of the actor and the critics: it bounds the
     hidden features whatever the input's scale, so one far-out observation cannot send the
     critics' outputs and gradients off (on in the cpu preset; whether resetting runaway pegs,
-    see sim/scene.py, makes it unnecessary is not measured)."""
+    see sim/engines/mujoco/scene.py, makes it unnecessary is not measured)."""
     obs_symlog_scale: float | None = None
     """If set, the actor and the critics see symlog(k obs) with k this: 1000 reads positions
     in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""

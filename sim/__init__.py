@@ -13,8 +13,8 @@ for the preview), bench.py (throughput), gym_adapter.py / torch_adapter.py (gymn
 torch views), usd_module.py / physx_config.py / physx_batch.py (PhysX, the referee engine).
 """
 
-from sim.assets import AssetError, load_dataset, load_module
-from sim.config import EVAL_CONFIG, PhysicsConfig, TaskConfig
+from sim.assets.loading import AssetError, load_dataset, load_module
+from sim.task.config import EVAL_CONFIG, PhysicsConfig, TaskConfig
 from sim.env import PegInHoleVecEnv, make_eval_env, make_train_env
 
 __all__ = [

@@ -38,14 +38,14 @@ import numpy as np
 from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
-from sim import step_kernel as K
-from sim import task as T
-from sim.assets import ModuleAsset, check_physics, dataset_root, load_dataset
-from sim.batch import BatchSim
-from sim.config import TaskConfig
-from sim.curriculum import SuccessCurriculum
-from sim.module_replay import ModuleReplay
-from sim.physx_config import PhysxConfig
+from sim.task import kernel as K
+from sim.task import rules as T
+from sim.assets.loading import ModuleAsset, check_physics, dataset_root, load_dataset
+from sim.engines.mujoco.batch import BatchSim
+from sim.task.config import TaskConfig
+from sim.task.curriculum import SuccessCurriculum
+from sim.task.module_replay import ModuleReplay
+from sim.engines.physx.config import PhysxConfig
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -62,7 +62,7 @@ def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
 
 ENGINES = ("mujoco", "physx", "mujoco-warp")
 """Physics engines the env runs on: MuJoCo on the CPU (the simulator), PhysX (the referee,
-sim/physx_batch.py), MuJoCo Warp (the simulator's physics on a GPU, sim/warp_batch.py)."""
+sim/engines/physx/batch.py), MuJoCo Warp (the simulator's physics on a GPU, sim/engines/warp/batch.py)."""
 
 
 class PegInHoleVecEnv:
@@ -131,11 +131,11 @@ class PegInHoleVecEnv:
                     f"engine = 'physx' serves one env per module ({len(modules)} modules, "
                     f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
                 )
-            from sim.physx_batch import PhysxBatchSim
+            from sim.engines.physx.batch import PhysxBatchSim
 
             self.sim = PhysxBatchSim(assets, self.cfg, physx)
         elif engine == "mujoco-warp":
-            from sim.warp_batch import WarpBatchSim
+            from sim.engines.warp.batch import WarpBatchSim
 
             self.sim = WarpBatchSim(assets, self.cfg, spare, device=warp_device)
         else:
@@ -596,7 +596,7 @@ def train_config(
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
-    the training episodes' `curriculum_success` rate (sim/curriculum.py), the physics of
+    the training episodes' `curriculum_success` rate (sim/task/curriculum.py), the physics of
     the dataset's files checked (see make_train_env)."""
     root = dataset_root(dataset)
     config = TaskConfig(physics=check_physics(root, keep_physics))
@@ -626,7 +626,7 @@ def make_train_env(
     A dataset written for other physics is refused unless `keep_physics` (then it is
     simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
     serves one env per module, so num_envs must cover the dataset's modules; for training
-    on mujoco-warp the command line takes sim/warp_env.py's env, the task on the device)."""
+    on mujoco-warp the command line takes sim/engines/warp/env.py's env, the task on the device)."""
     root, config = train_config(
         dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
     )
@@ -638,7 +638,7 @@ def make_train_env(
 def eval_config(noise_scale: float = 1.0) -> TaskConfig:
     """The evaluation protocol's task config (noise on, curriculum off), its four noise
     standard deviations times `noise_scale` (2: twice the paper's)."""
-    from sim.config import EVAL_CONFIG
+    from sim.task.config import EVAL_CONFIG
 
     if not (math.isfinite(noise_scale) and noise_scale >= 0):
         raise ValueError(f"noise_scale = {noise_scale}: give a factor >= 0 (1: the paper's noise)")

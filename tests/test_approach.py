@@ -8,7 +8,7 @@ import numpy as np
 
 import rl.runner
 from benchmarks import approach
-from sim.expert import direct_expert_action
+from sim.task.expert import direct_expert_action
 from tests.test_sim_common import sim_dataset
 
 

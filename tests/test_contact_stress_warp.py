@@ -1,4 +1,4 @@
-"""The contact stress benchmark on MuJoCo Warp (sim/contact_stress_warp.py), run on Warp's CPU
+"""The contact stress benchmark on MuJoCo Warp (sim/bench/stress_warp.py), run on Warp's CPU
 device (float32, the GPU's kernels): the runs give MuJoCo's figures on the CPU, and every mesh
 a world can take has the face polygons multiccd needs."""
 
@@ -13,10 +13,10 @@ pytest.importorskip("warp", reason="the warp extra: pip install -e '.[warp]'")
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
 
 from assetgen.core.mujoco_config import physics_for
-from sim.assets import load_dataset
-from sim.config import TaskConfig
-from sim.contact_stress import StressConfig, stress
-from sim.contact_stress_warp import stress_warp
+from sim.assets.loading import load_dataset
+from sim.task.config import TaskConfig
+from sim.bench.stress import StressConfig, stress
+from sim.bench.stress_warp import stress_warp
 from tests.test_warp import _dataset
 
 # every case family, few directions, pushes of 0.6 s: 13 runs of one module
@@ -58,7 +58,7 @@ def test_every_mesh_a_world_can_take_has_polygons() -> None:
     comes from the hull; the worlds take their meshes by id, and without polygons MuJoCo
     Warp's multiccd keeps one contact: a peg pressed flat onto the hole's floor sank
     0.23 mm, where MuJoCo's four contacts hold it within 0.001 mm."""
-    from sim.warp_batch import WarpBatchSim
+    from sim.engines.warp.batch import WarpBatchSim
 
     mods = load_dataset(_dataset())
     sim = WarpBatchSim(mods[:1], TaskConfig(physics=physics_for(0.001)), spare_assets=mods[1:],

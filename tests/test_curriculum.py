@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sim.config import TaskConfig
-from sim.curriculum import SuccessCurriculum
+from sim.task.config import TaskConfig
+from sim.task.curriculum import SuccessCurriculum
 from tests.test_cli import run as cli
 from tests.test_sim_common import make_env, quiet, sim_dataset
 
@@ -89,7 +89,7 @@ def test_the_env_widens_its_spawns_when_its_episodes_succeed() -> None:
 
 def test_the_env_on_the_device_refuses_it() -> None:
     pytest.importorskip("mujoco_warp")
-    from sim.warp_env import WarpTorchVecEnv, make_device_train_env
+    from sim.engines.warp.env import WarpTorchVecEnv, make_device_train_env
 
     cfg = replace(quiet(), curriculum_success=0.8)
     with pytest.raises(ValueError, match="host env"):

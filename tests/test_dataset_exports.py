@@ -70,7 +70,7 @@ def test_the_mjcf_loads_alone_from_an_empty_folder(tiny_dataset, tmp_path):
     import mujoco
 
     from assetgen.core.stl import read_stl_mm
-    from sim.assets import load_module
+    from sim.assets.loading import load_module
 
     _, paths, meta = _modules(tiny_dataset)[0]
     alone = tmp_path / "empty"

@@ -27,7 +27,7 @@ from rl.dreamer.distributions import (
 )
 from rl.dreamer.replay import ReplayMemoryError, SequenceReplay
 from rl.dreamer.world_model import State
-from rl.evaluate import evaluate
+from evaluation.protocol import evaluate
 from rl.presets import Setup, get_setup
 from rl.runner import load_agent, reset_hook, train
 from tests.test_rl_runner import Interrupt, NaNAfter, _weights

@@ -9,7 +9,7 @@ import pytest
 
 from benchmarks.dreamer_footprint import footprint, main
 from rl.presets import get_setup
-from sim import task as T
+from sim.task import rules as T
 
 
 def test_the_replay_size_is_the_presets_capacity_in_float32_rows():

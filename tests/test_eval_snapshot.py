@@ -10,10 +10,10 @@ import pytest
 import torch
 
 from rl.dreamer.agent import Dreamer
-from rl.eval_snapshot import EvalSnapshots, snapshot_progress
-from rl.evaluate import evaluate
+from evaluation.snapshots import EvalSnapshots, snapshot_progress
+from evaluation.protocol import evaluate
 from rl.runner import acting_state_hooks, reset_hook
-from sim.expert import direct_expert_action
+from sim.task.expert import direct_expert_action
 from tests.test_dreamer import TINY
 from tests.test_sim_common import make_env, quiet
 

@@ -10,7 +10,7 @@ import numpy as np
 import rl.checkpoint
 import rl.runner
 from benchmarks import jams
-from sim.expert import direct_expert_action
+from sim.task.expert import direct_expert_action
 from tests.test_sim_common import sim_dataset
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("assetgen", "sim", "rl", "preview", "benchmarks")
+PACKAGES = ("assetgen", "sim", "rl", "evaluation", "preview", "benchmarks")
 STAGES = (
     "core", "params", "geometry", "families", "checks", "collision", "formats", "dataset",
     "physics",

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sim.config import TaskConfig
-from sim.module_replay import ModuleReplay
+from sim.task.config import TaskConfig
+from sim.task.module_replay import ModuleReplay
 from tests.test_cli import run as cli
 from tests.test_sim_common import make_env, quiet, sim_dataset
 
@@ -76,7 +76,7 @@ def test_an_env_that_does_not_rotate_refuses_it() -> None:
 
 def test_the_env_on_the_device_refuses_it() -> None:
     pytest.importorskip("mujoco_warp")
-    from sim.warp_env import make_device_train_env
+    from sim.engines.warp.env import make_device_train_env
 
     with pytest.raises(ValueError, match="host env only"):
         make_device_train_env(str(sim_dataset()), 2, 0, module_replay=0.5)

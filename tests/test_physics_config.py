@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from assetgen.core.mujoco_config import PhysicsConfig, physics_for
-from sim.scene import build_model
+from sim.engines.mujoco.scene import build_model
 from tests.test_sim_common import modules, sim_dataset
 
 OPT_FIELDS = (
@@ -121,7 +121,7 @@ def test_dataset_records_its_physics_and_the_simulator_refuses_others(tmp_path) 
     import shutil
 
     from assetgen.core.mujoco_config import PHYSICS_TEXT, PHYSICS_VERSION
-    from sim.assets import AssetError, check_physics
+    from sim.assets.loading import AssetError, check_physics
     from sim.env import make_eval_env
 
     root = tmp_path / "ds"

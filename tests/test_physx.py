@@ -1,4 +1,4 @@
-"""The PhysX referee (sim/physx_batch.py, sim/usd_module.py): modules read from their USD
+"""The PhysX referee (sim/engines/physx/batch.py, sim/engines/physx/usd_module.py): modules read from their USD
 files, the same task in the same env, free flight that matches MuJoCo's, an expert that
 inserts, and errors that name the file and prim."""
 
@@ -17,12 +17,12 @@ pytest.importorskip("sapien", reason="the physx extra: pip install -e '.[physx]'
 pytest.importorskip("pxr", reason="the physx extra: pip install -e '.[physx]'")
 
 from assetgen.core.mujoco_config import physics_for
-from sim.assets import AssetError, load_dataset
-from sim.config import TaskConfig
+from sim.assets.loading import AssetError, load_dataset
+from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
-from sim.expert import DIRECT, expert_action
-from sim.physx_config import PhysxConfig
-from sim.usd_module import load_usd_module
+from sim.task.expert import DIRECT, expert_action
+from sim.engines.physx.config import PhysxConfig
+from sim.engines.physx.usd_module import load_usd_module
 
 
 @functools.cache
@@ -156,7 +156,7 @@ def test_a_piece_cut_in_two_is_the_piece() -> None:
     volumes add up to the piece's and whose union holds every corner."""
     from scipy.spatial import ConvexHull
 
-    from sim.physx_batch import _halves
+    from sim.engines.physx.batch import _halves
 
     rng = np.random.default_rng(0)
     v = rng.normal(size=(40, 3)) * [0.03, 0.01, 0.005]
@@ -211,8 +211,8 @@ def test_the_observation_of_a_pose_is_mujocos() -> None:
 def test_the_stress_benchmark_measures_physx_friction() -> None:
     """The friction runs of the contact stress benchmark on PhysX: a peg slid across the
     plate under 1 N shows the configured coefficient (within 5 % at 0.1 and 0.5)."""
-    from sim.contact_stress import StressConfig
-    from sim.contact_stress_physx import run_module_physx
+    from sim.bench.stress import StressConfig
+    from sim.bench.stress_physx import run_module_physx
 
     cfg = StressConfig(cases=("friction",), friction_values=(0.1, 0.5))
     asset = load_dataset(_dataset())[0]
@@ -240,7 +240,7 @@ def test_the_packed_state_is_what_each_body_says() -> None:
 def test_bench_sim_runs_on_physx() -> None:
     """`assetgen bench sim --sim physx`: the env's rate next to the PhysX scene's own control
     steps, one env per module of the first `envs`."""
-    from sim.bench import bench_physx
+    from sim.bench.throughput import bench_physx
 
     res = bench_physx(_dataset(), envs=2, steps=4, rounds=2)
     assert res["engine"] == "physx" and res["envs"] == res["modules"] == 2

@@ -33,12 +33,12 @@ from preview.episode import load_episode
 from preview.live import LivePolicy
 from preview.scene import PreviewError
 from preview.server import serve
-from sim import task as T
+from sim.task import rules as T
 from tests.test_sim_common import sim_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORDER_KEYS = {"module_id", "poses", "spawn_pose", "reward", "success"}
-"""What sim/recording.py's EpisodeRecorder writes (live recordings add dt)."""
+"""What evaluation/recording.py's EpisodeRecorder writes (live recordings add dt)."""
 
 
 @functools.cache

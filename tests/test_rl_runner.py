@@ -14,7 +14,7 @@ import torch
 
 from rl import checkpoint as ckpt
 from rl.commands import EvalHooks, add_train_parser, eval_main
-from rl.evaluate import evaluate
+from evaluation.protocol import evaluate
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
 from rl.runner import CHECKPOINT, load_agent, train

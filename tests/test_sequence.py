@@ -13,10 +13,10 @@ import pytest
 from assetgen.core.mujoco_config import PHYSICS_VERSION
 from assetgen.core.rotations import matrix_to_quat
 from rl.commands import EvalHooks, eval_main
-from sim.assembly_assets import AssemblyStages
+from sim.assets.assembly import AssemblyStages
 from sim.env import eval_config
-from sim.expert import EXPERTS
-from sim.sequence import (
+from sim.task.expert import EXPERTS
+from evaluation.sequence import (
     evaluate_assembly_dataset,
     evaluate_sequence,
     is_assembly_dataset,
@@ -131,7 +131,7 @@ def test_a_policy_of_another_observation_size_is_refused_before_the_run(
 
     def run_sequence(*a, wrap, **kw):
         calls.append(1)
-        from sim.sequence import evaluate_assembly_dataset
+        from evaluation.sequence import evaluate_assembly_dataset
 
         return evaluate_assembly_dataset(*a, wrap=wrap, **kw)
 

@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from sim.env import PegInHoleVecEnv
-from sim.gym_adapter import GymEnv, GymVectorEnv
+from sim.adapters.gymnasium_env import GymEnv, GymVectorEnv
 from tests.test_sim_common import modules, quiet
 
 
@@ -26,7 +26,7 @@ def test_single_env_passes_gymnasiums_checker() -> None:
 def test_gymnasium_make_and_make_vec() -> None:
     """The registered id gives the single env (gymnasium's checker passes on it) and the
     batched one, over a dataset folder."""
-    from sim.gym_adapter import ENV_ID
+    from sim.adapters.gymnasium_env import ENV_ID
     from tests.test_sim_common import sim_dataset
 
     env = gym.make(ENV_ID, dataset=str(sim_dataset()), curriculum_steps=0)
@@ -69,7 +69,7 @@ def test_vector_env_follows_gymnasiums_same_step_autoreset() -> None:
 
 def test_torch_adapter_speaks_tensors() -> None:
     torch = pytest.importorskip("torch")
-    from sim.torch_adapter import TorchVecEnv
+    from sim.adapters.torch_env import TorchVecEnv
 
     env = TorchVecEnv(PegInHoleVecEnv(list(modules()[:2]), 2, quiet()))
     obs = env.reset(seed=0)

@@ -11,10 +11,10 @@ import pytest
 
 from assetgen.dataset.assembly_writer import write_assembly
 from assetgen.families.profile_bolt import ProfileBoltSampler, build_profile_bolt
-from sim.assembly_assets import load_stage
-from sim.config import EVAL_CONFIG
+from sim.assets.assembly import load_stage
+from sim.task.config import EVAL_CONFIG
 from sim.env import PegInHoleVecEnv
-from sim.expert import EXPERTS
+from sim.task.expert import EXPERTS
 
 
 @pytest.fixture(scope="module")

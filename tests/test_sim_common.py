@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.assets import ModuleAsset, load_dataset
-from sim.config import TaskConfig
+from sim.assets.loading import ModuleAsset, load_dataset
+from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
 
 SEED_START = 2048

@@ -13,10 +13,10 @@ import pytest
 
 from assetgen.core.rotations import rot6d
 from assetgen.dataset.reader import Dataset
-from sim import task as T
-from sim.assets import AssetError, load_dataset
+from sim.task import rules as T
+from sim.assets.loading import AssetError, load_dataset
 from sim.env import PegInHoleVecEnv, assign_modules
-from sim.expert import expert_action
+from sim.task.expert import expert_action
 from tests.test_sim_common import make_env, modules, quiet, sim_dataset
 
 
@@ -46,7 +46,7 @@ def test_noise_perturbs_one_pose_estimate_consistently() -> None:
     env = make_env(1, replace(quiet(), noise=True))
     obs = env.reset(seed=0)
     truth = np.linalg.inv(env.bottom[0]) @ env.entrance[0]
-    from sim.expert import _split
+    from sim.task.expert import _split
 
     t_e, r_e, t_b, r_b = _split(obs.astype(np.float64))
     r_be = r_b[0] @ r_e[0].T

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from cli import main
-from rl.evaluate import evaluate
+from evaluation.protocol import evaluate
 from sim import make_eval_env
-from sim.expert import expert_action
-from sim.recording import EpisodeRecorder, env_labels
+from sim.task.expert import expert_action
+from evaluation.recording import EpisodeRecorder, env_labels
 from tests.test_sim_common import sim_dataset
 
 
@@ -79,7 +79,7 @@ def test_eval_refuses_bad_input(capsys) -> None:
 
 
 def test_fast_expert_descends_while_turning_only_above_the_safe_height() -> None:
-    from sim.expert import FAST, fast_expert_action
+    from sim.task.expert import FAST, fast_expert_action
 
     env = make_eval_env(str(sim_dataset()), None, 0)
     obs = np.concatenate([env.reset(seed=s) for s in range(8)]).astype(np.float64)
@@ -94,7 +94,7 @@ def test_fast_expert_descends_while_turning_only_above_the_safe_height() -> None
 
 
 def test_fast_expert_is_faster_on_the_same_spawns() -> None:
-    from sim.expert import fast_expert_action
+    from sim.task.expert import fast_expert_action
 
     runs = {}
     for name, policy in (("default", expert_action), ("fast", fast_expert_action)):
@@ -106,7 +106,7 @@ def test_fast_expert_is_faster_on_the_same_spawns() -> None:
 
 
 def test_box_limits_keep_the_direction_and_use_the_whole_box() -> None:
-    from sim.expert import _limit
+    from sim.task.expert import _limit
 
     v = np.array([[0.5, 0.5, 0.0], [0.1, 0.0, 0.0]])
     norm, box = _limit(v, 0.25, False), _limit(v, 0.25, True)
@@ -119,7 +119,7 @@ def test_box_limits_keep_the_direction_and_use_the_whole_box() -> None:
 def test_turn_reach_matches_hand_computed_tilts() -> None:
     """The lowest point of any Table I peg below its bottom-face centre: r sin(b) for an axis
     b from the vertical (b <= 90 deg), plus L |cos(b)| once it points down."""
-    from sim.expert import DIRECT, _turn_reach
+    from sim.task.expert import DIRECT, _turn_reach
 
     def rot_x(a: float) -> np.ndarray:
         c, s = math.cos(a), math.sin(a)
@@ -142,7 +142,7 @@ def test_turn_reach_matches_hand_computed_tilts() -> None:
 def test_direct_expert_turns_low_and_beats_the_fast_one() -> None:
     """The direct expert turns an upright-ish peg well below the fixed 16 cm, and succeeds at
     least as often as the fast expert, sooner, on the same spawns."""
-    from sim.expert import DIRECT, FAST, _split, direct_expert_action, fast_expert_action
+    from sim.task.expert import DIRECT, FAST, _split, direct_expert_action, fast_expert_action
 
     env = make_eval_env(str(sim_dataset()), None, 0)
     obs = np.concatenate([env.reset(seed=s) for s in range(8)]).astype(np.float64)
@@ -165,7 +165,7 @@ def test_direct_expert_turns_low_and_beats_the_fast_one() -> None:
 def _turning(obs: np.ndarray, cfg) -> np.ndarray:
     """(n,) the expert's own test for phase 2: orientation error above cfg.turn_angle."""
     from assetgen.core.rotations import matrix_to_rotvec
-    from sim.expert import _split
+    from sim.task.expert import _split
 
     _, r_ep, _, r_bp = _split(obs)
     r_eb = r_ep @ np.swapaxes(r_bp, 1, 2)
@@ -173,9 +173,9 @@ def _turning(obs: np.ndarray, cfg) -> np.ndarray:
 
 
 def test_the_cli_names_every_expert() -> None:
-    """`--agent` and `--demos` offer exactly the experts sim.expert defines."""
+    """`--agent` and `--demos` offer exactly the experts sim.task.expert defines."""
     from cli import EXPERT_NAMES, TEACHERS
-    from sim.expert import EXPERTS
+    from sim.task.expert import EXPERTS
 
     assert tuple(EXPERTS) == EXPERT_NAMES
     for name, act in EXPERTS.items():

@@ -1,5 +1,5 @@
-"""The compiled per-step kernels (sim/step_kernel.py) against the task's definitions on
-numpy arrays (the functions of sim/task.py, which test_sim_task.py holds to their matrix
+"""The compiled per-step kernels (sim/task/kernel.py) against the task's definitions on
+numpy arrays (the functions of sim/task/rules.py, which test_sim_task.py holds to their matrix
 definitions), on random batches that reach every branch: success, failure below the surface
 outside the hole, inside the hole, unstable rows; and against the shard layout they serve."""
 
@@ -10,9 +10,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sim import step_kernel as K
-from sim import task as T
-from sim.config import TaskConfig
+from sim.task import kernel as K
+from sim.task import rules as T
+from sim.task.config import TaskConfig
 
 N = 400
 V = 12
@@ -57,7 +57,7 @@ def _batch(seed: int) -> dict:
 
 
 def _reference(b: dict, cfg: TaskConfig) -> tuple[np.ndarray, ...]:
-    """What one step scores, from sim/task.py's functions: obs, reward, success, failure,
+    """What one step scores, from sim/task/rules.py's functions: obs, reward, success, failure,
     returns, c_prev."""
     frames = T.ObsFrames.of(b["entrance"], b["bottom"])
     pos, quat = b["state"][:, 1:4].copy(), b["state"][:, 4:8].copy()

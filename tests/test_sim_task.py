@@ -12,8 +12,8 @@ from assetgen.core.rotations import (
     random_axes,
     rotvec_to_quat,
 )
-from sim import task as T
-from sim.config import TaskConfig
+from sim.task import rules as T
+from sim.task.config import TaskConfig
 
 
 def _random_frames(rng: np.random.Generator, n: int) -> np.ndarray:

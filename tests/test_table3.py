@@ -112,7 +112,7 @@ def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_pat
     import numpy as np
 
     from rl import checkpoint as ckpt
-    from rl.eval_snapshot import EvalSnapshots
+    from evaluation.snapshots import EvalSnapshots
 
     ckpt.save(runs / "ppo-s1" / "checkpoint.safetensors", {},
               {"counters": {"env_steps": 1_230_000, "wall_s": 1800.0}})  # fmt: skip

@@ -1,5 +1,5 @@
-"""The task arithmetic on torch tensors (sim/task_torch.py) against the compiled kernels it
-ports (sim/step_kernel.py), on the kernels' own random batches: every branch (success,
+"""The task arithmetic on torch tensors (sim/task/rules_torch.py) against the compiled kernels it
+ports (sim/task/kernel.py), on the kernels' own random batches: every branch (success,
 failure outside the hole, pegs inside it, unstable rows), with and without noise."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from sim import step_kernel as K
-from sim import task_torch as TT
-from sim.config import TaskConfig
+from sim.task import kernel as K
+from sim.task import rules_torch as TT
+from sim.task.config import TaskConfig
 from tests.test_sim_kernel import N, _batch, _kernel_frames, _score, command_case
 
 
@@ -106,7 +106,7 @@ def test_spawn_draws_the_host_spawns_distribution(scale: float) -> None:
     up to scale spawn_max_angle, the peg's lowest point at least 1 mm above the surface,
     and the same means and spreads as the host's draws within sampling error."""
     from assetgen.core.rotations import quat_conj, quat_mul
-    from sim import task as T
+    from sim.task import rules as T
 
     n, cfg = 20000, TaskConfig()
     rng = np.random.default_rng(0)

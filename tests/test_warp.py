@@ -1,4 +1,4 @@
-"""The simulator on MuJoCo Warp (sim/warp_batch.py), run on Warp's CPU device so that CI
+"""The simulator on MuJoCo Warp (sim/engines/warp/batch.py), run on Warp's CPU device so that CI
 needs no GPU: the same trajectory as the CPU simulator in free flight, the same insertions
 in contact, module rotation, and the errors."""
 
@@ -17,11 +17,11 @@ pytest.importorskip("warp", reason="the warp extra: pip install -e '.[warp]'")
 
 from assetgen.core.mujoco_config import physics_for
 from assetgen.core.rotations import quat_conj, quat_mul
-from sim.assets import load_dataset
-from sim.config import TaskConfig
+from sim.assets.loading import load_dataset
+from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
-from sim.expert import DIRECT, expert_action
-from sim.warp_batch import _warp
+from sim.task.expert import DIRECT, expert_action
+from sim.engines.warp.batch import _warp
 
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
 _warp()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
@@ -128,7 +128,7 @@ def test_what_changes_between_steps_reaches_the_device() -> None:
     """Between steps only what changed goes up: a world put on another module gets that
     module's rows (meshes, frames, the fixed pieces' poses), a new contact draw reaches its
     world's peg alone."""
-    from sim.warp_batch import WarpBatchSim
+    from sim.engines.warp.batch import WarpBatchSim
 
     mods = load_dataset(_dataset())
     sim = WarpBatchSim(mods[:2], _quiet(), spare_assets=mods[2:])
@@ -153,7 +153,7 @@ def test_what_changes_between_steps_reaches_the_device() -> None:
 def test_a_world_out_of_contact_room_is_refused_not_truncated() -> None:
     """MuJoCo Warp drops contacts beyond those allocated; the engine says so instead."""
     from assetgen.core.rotations import matrix_to_quat
-    from sim.warp_batch import WarpBatchSim
+    from sim.engines.warp.batch import WarpBatchSim
 
     mod = load_dataset(_dataset())[0]
     sim = WarpBatchSim([mod], _quiet(), nconmax=1, njmax=3)
@@ -207,11 +207,11 @@ def test_bench_sim_runs_on_warp(capsys) -> None:
 def test_without_a_gpu_warp_asks_for_allow_cpu(command, monkeypatch, capsys, tmp_path) -> None:
     """With no CUDA GPU, --sim mujoco-warp stops in one line that says Warp would run on the
     CPU and how much slower, and names --allow-cpu, before any env is built."""
-    import sim.warp_batch
+    import sim.engines.warp.batch
     from cli import main
     from sim import env as sim_env
 
-    monkeypatch.setattr(sim.warp_batch, "default_device", lambda: "cpu")
+    monkeypatch.setattr(sim.engines.warp.batch, "default_device", lambda: "cpu")
     built = []
     monkeypatch.setattr(sim_env.PegInHoleVecEnv, "__init__", lambda *a, **k: built.append(a))
     data = str(_dataset())
@@ -224,14 +224,14 @@ def test_without_a_gpu_warp_asks_for_allow_cpu(command, monkeypatch, capsys, tmp
         argv += ["--out", str(tmp_path / "run")]
     assert main([*argv, "--sim", "mujoco-warp"]) != 0
     err = capsys.readouterr().err.strip()
-    assert "--allow-cpu" in err and f"{sim.warp_batch.CPU_SLOWDOWN} times slower" in err, err
+    assert "--allow-cpu" in err and f"{sim.engines.warp.batch.CPU_SLOWDOWN} times slower" in err, err
     assert "\n" not in err and not built
 
 
 def test_bench_build_sizes_what_a_module_costs_the_warp_engine() -> None:
     """`assetgen bench load --sim mujoco-warp`: the per-module cost at construction. The
     model the device gets holds each module's meshes, so it grows with the modules."""
-    from sim.bench_build import bench_build
+    from sim.bench.build import bench_build
 
     two = bench_build(_dataset(), n=2, engine="mujoco-warp")
     three = bench_build(_dataset(), n=3, engine="mujoco-warp")

@@ -1,4 +1,4 @@
-"""The env on the device (sim/warp_env.py), run on Warp's CPU device so that CI needs no GPU:
+"""The env on the device (sim/engines/warp/env.py), run on Warp's CPU device so that CI needs no GPU:
 the same states, observations and rewards as the host env on the same engine, the host's
 module rotation, each world's fields those of its module, and the spawn's ranges."""
 
@@ -13,10 +13,10 @@ pytest.importorskip("warp", reason="the warp extra: pip install -e '.[warp]'")
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
 torch = pytest.importorskip("torch")
 
-from sim.assets import load_dataset  # noqa: E402
+from sim.assets.loading import load_dataset  # noqa: E402
 from sim.env import PegInHoleVecEnv  # noqa: E402
-from sim.expert import DIRECT, expert_action  # noqa: E402
-from sim.warp_env import WarpTorchVecEnv  # noqa: E402
+from sim.task.expert import DIRECT, expert_action  # noqa: E402
+from sim.engines.warp.env import WarpTorchVecEnv  # noqa: E402
 from tests.test_warp import _dataset, _quiet  # noqa: E402
 
 

@@ -10,7 +10,7 @@ the world model on a replayed batch, then the actor and the critic on trajectori
 from its posterior states. `update(last_obs)` only reports the mean metrics.
 
 `reset(mask)` starts new episodes where mask (N,) is True: the runner calls it after it
-resets the env, rl/evaluate.py after each step, so a recurrent policy never carries one
+resets the env, evaluation/protocol.py after each step, so a recurrent policy never carries one
 episode's state into the next.
 
 With a teacher (`set_teacher`, e.g. `assetgen train --algo dreamer --demos scripted-fast`)
@@ -95,7 +95,7 @@ class Dreamer:
     def acting_state(self) -> dict[str, np.ndarray]:
         """A copy of the per-env acting state as arrays: the recurrent state (deter, stoch),
         the previous action and the first-step flags; for `load_acting_state` after another
-        use of the policy (rl/probe.py) or in a resumed evaluation (rl/eval_snapshot.py)."""
+        use of the policy (rl/probe.py) or in a resumed evaluation (evaluation/snapshots.py)."""
         st = self.state
         return {
             "deter": st.deter.cpu().numpy().copy(),

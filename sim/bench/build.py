@@ -32,9 +32,9 @@ def bench_build(dataset: str | Path, n: int = 128, engine: str = "mujoco") -> di
     MB a module of the model on the device (its buffer), on Warp's default device."""
     from assetgen.core.mujoco_config import physics_for
     from assetgen.dataset.reader import Dataset
-    from sim.assets import load_dataset
-    from sim.batch import BatchSim
-    from sim.config import TaskConfig
+    from sim.assets.loading import load_dataset
+    from sim.engines.mujoco.batch import BatchSim
+    from sim.task.config import TaskConfig
 
     if n < 2:
         raise ValueError(f"--n {n}: build at least 2 modules (one env, one waiting)")
@@ -44,7 +44,7 @@ def bench_build(dataset: str | Path, n: int = 128, engine: str = "mujoco") -> di
     envs = min(8, len(modules) - 1)
     held, waiting = modules[:envs], modules[envs:]
     if engine == "mujoco-warp":
-        from sim.warp_batch import WarpBatchSim
+        from sim.engines.warp.batch import WarpBatchSim
 
         WarpBatchSim(held[:1], cfg, waiting[:1])  # Warp's start and kernels, not the modules
         gc.collect()

@@ -9,7 +9,7 @@ cores, so the step stays serial. Written by hand because no library fuses it: Mu
 sensors could give the clean observation, but not the estimation noise, the quaternion form
 of the seat distance or the failure test.
 
-This is the only implementation: the task functions of sim/task.py define the same
+This is the only implementation: the task functions of sim/task/rules.py define the same
 quantities on numpy arrays, and tests/test_sim_kernel.py holds the kernels to them on random
 batches that reach every branch. Inputs travel in named tuples (numba reads their fields by
 name), built by name from the configs, so no call depends on an order of arguments.
@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from sim.config import PhysicsConfig, TaskConfig
+from sim.task.config import PhysicsConfig, TaskConfig
 
 
 class StepParams(NamedTuple):

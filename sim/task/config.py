@@ -47,7 +47,7 @@ class TaskConfig:
     zero to full; 0 turns the curriculum off (full ranges from the start)."""
     curriculum_success: float | None = None
     """If set, the spawn ranges follow the training episodes' success instead of the env
-    steps (sim/curriculum.py): starting at the entrance, they widen by
+    steps (sim/task/curriculum.py): starting at the entrance, they widen by
     `curriculum_increment` of the full ranges whenever `curriculum_window` finished episodes
     succeeded at this rate or more, and narrow by as much below half of it; curriculum_steps
     is then unused."""
@@ -57,7 +57,7 @@ class TaskConfig:
     """Finished training episodes between two decisions of the success-gated curriculum."""
     module_replay: float | None = None
     """If set (in (0, 1]), a rotating env draws this share of its next modules weighted by
-    their recent failure rate instead of taking them in turn (sim/module_replay.py)."""
+    their recent failure rate instead of taking them in turn (sim/task/module_replay.py)."""
     friction_range: tuple[float, float] = (0.0, 1.0)
     """Static and dynamic friction coefficients are each drawn uniformly here at reset.
     MuJoCo has one Coulomb coefficient: it gets the dynamic one (see scene.py)."""

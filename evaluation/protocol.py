@@ -20,7 +20,7 @@ import numpy as np
 from rl.vec_env import VecEnv
 
 if TYPE_CHECKING:
-    from rl.eval_snapshot import EvalSnapshots
+    from evaluation.snapshots import EvalSnapshots
 
 Policy = Callable[[np.ndarray], np.ndarray]
 """obs (N, obs_dim) float32 -> actions (N, act_dim) in [-1, 1]."""
@@ -30,7 +30,7 @@ PolicyState = tuple[Callable[[], dict[str, Any]], Callable[[dict[str, Any]], Non
 
 
 class Recorder(Protocol):
-    """Keeps episodes as they are played (sim/recording.py writes them for the preview)."""
+    """Keeps episodes as they are played (evaluation/recording.py writes them for the preview)."""
 
     def begin(self, env: Any) -> None:
         """Called after env.reset: every env starts an episode."""
@@ -74,7 +74,7 @@ def evaluate(
     (N,) names what each env plays (its module) for `per_module`; `recorder` sees every step
     (`--record`). `live(mask)` (the env's set_live, when it has one) is told before every
     step which envs still have episodes to play, so the simulator may skip the others.
-    `snapshots` (rl/eval_snapshot.py) saves the evaluation as it goes and resumes a saved
+    `snapshots` (evaluation/snapshots.py) saves the evaluation as it goes and resumes a saved
     one, with the same results as an uncut run: for an env with get_state/set_state, no
     `recorder`, and a policy whose state is torch's RNG, plus, for one with a `reset` hook,
     what `policy_state` = (get, set) saves and restores (Dreamer's acting state).

@@ -26,10 +26,10 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from sim import step_kernel as K
-from sim.assets import ModuleAsset
-from sim.config import TaskConfig
-from sim.scene import build_model, contact_solref, restitution_to_dampratio
+from sim.task import kernel as K
+from sim.assets.loading import ModuleAsset
+from sim.task.config import TaskConfig
+from sim.engines.mujoco.scene import build_model, contact_solref, restitution_to_dampratio
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # Counts that size arrays of mjData: the capacity model's must be at least each model's.
@@ -74,7 +74,7 @@ def shard_layout(num_envs: int, shard_size: int) -> tuple[int, int]:
 class PegStateViews:
     """Views of a simulator's `state` (num_envs, 14) = [time, pos (3), quat (4), qvel (6)],
     and pegs placed at rest in it, shared by BatchSim, the PhysX referee
-    (sim/physx_batch.py) and MuJoCo Warp (sim/warp_batch.py)."""
+    (sim/engines/physx/batch.py) and MuJoCo Warp (sim/engines/warp/batch.py)."""
 
     state: np.ndarray
 

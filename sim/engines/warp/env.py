@@ -7,7 +7,7 @@ the host: each control step copies the states down and back and scores them in o
 single-threaded pass, which at thousands of worlds costs as much as the physics. Here the
 Warp arrays of the states, the commands and the per-world model fields are seen as torch
 tensors (`wp.to_torch`, no copy), and every per-step quantity is computed from them by
-sim/task_torch.py: commands and their noise, the physics (one captured CUDA graph), the
+sim/task/rules_torch.py: commands and their noise, the physics (one captured CUDA graph), the
 unstable test, observations, rewards, success and failure, and the resets of finished
 episodes (module rotation, spawn, contact draws), all batched over the envs and free of
 host synchronisation. The host reads the contact counters every `check_every` steps.
@@ -28,11 +28,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from sim import step_kernel as K
-from sim import task as T
-from sim import task_torch as TT
-from sim.assets import ModuleAsset
-from sim.config import TaskConfig
+from sim.task import kernel as K
+from sim.task import rules as T
+from sim.task import rules_torch as TT
+from sim.assets.loading import ModuleAsset
+from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv, train_config
 
 

@@ -3,7 +3,7 @@
     assetgen bench contacts DATASET [--limit N] [--set FIELD=VALUE ...] [--source sim|mjcf]
 
 Each module is stepped open loop (the commands are fixed in advance) through `mujoco.rollout`
-in C threads, one model per module: the simulator's own model of it (sim.scene, under the
+in C threads, one model per module: the simulator's own model of it (sim.engines.mujoco.scene, under the
 given PhysicsConfig) or its exported `peg_in_hole.xml` (the physics the file carries). A
 contact sensor on the peg reads MuJoCo's own contact distance at every physics step.
 
@@ -46,9 +46,9 @@ from assetgen.core.mesh import Mesh
 from assetgen.core.mujoco_config import LEGACY_PHYSICS, PHYSICS_VERSION, physics_for
 from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
-from sim.assets import ModuleAsset
-from sim.config import PhysicsConfig, TaskConfig
-from sim.scene import build_spec
+from sim.assets.loading import ModuleAsset
+from sim.task.config import PhysicsConfig, TaskConfig
+from sim.engines.mujoco.scene import build_spec
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -380,7 +380,7 @@ def _add_contact_sensor(spec: mujoco.MjSpec, body: str) -> None:
 def module_model(
     asset: ModuleAsset, physics: PhysicsConfig, task: TaskConfig, mjcf: str | None = None
 ) -> mujoco.MjModel:
-    """The module's model with the contact sensor: the simulator's (sim.scene) under
+    """The module's model with the contact sensor: the simulator's (sim.engines.mujoco.scene) under
     `physics`, or the exported file `mjcf` as it is (its own physics)."""
     if mjcf is None:
         spec = build_spec(
@@ -727,7 +727,7 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
     from assetgen.core.overrides import parse_overrides
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import resolve
-    from sim.assets import load_dataset
+    from sim.assets.loading import load_dataset
 
     root, _ = resolve(args.dataset)
     ids = Dataset(root).ids
@@ -778,13 +778,13 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
     t0 = time.perf_counter()
     if engine == "mujoco-warp":
         if warp_stress is None:
-            raise ValueError("--sim mujoco-warp: pass sim.contact_stress_warp.stress_warp")
+            raise ValueError("--sim mujoco-warp: pass sim.bench.stress_warp.stress_warp")
         records = warp_stress(assets, cfg, TaskConfig(physics=physics), progress=progress)
     elif engine == "physx":
-        from sim.physx_config import PhysxConfig
+        from sim.engines.physx.config import PhysxConfig
 
         if physx_stress is None:
-            raise ValueError("--sim physx: pass sim.contact_stress_physx.stress_physx")
+            raise ValueError("--sim physx: pass sim.bench.stress_physx.stress_physx")
         physx = PhysxConfig(**parse_overrides(PhysxConfig, args.set or []))
         task = TaskConfig(physics=physics)
         records = physx_stress(assets, cfg, task, physx, progress=progress)

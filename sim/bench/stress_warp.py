@@ -1,7 +1,7 @@
-"""The contact stress benchmark's runs (sim/contact_stress.py) on MuJoCo Warp.
+"""The contact stress benchmark's runs (sim/bench/stress.py) on MuJoCo Warp.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`contact_stress._figures`), stepped in MuJoCo Warp (sim/warp_batch.py): every run of
+figures (`contact_stress._figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py): every run of
 every module is a world of one model, all stepped together for the longest run's length
 (each run's figures read its own first steps). Each physics step's commands come from a
 table on the device, and the peg's state and its deepest contact are recorded there; the
@@ -19,10 +19,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sim.assets import ModuleAsset
-from sim.config import TaskConfig
-from sim.contact_stress import Run, StressConfig, _figures, module_runs, press_as_force
-from sim.warp_batch import NCONMAX, NJMAX, WarpBatchSim, _warp
+from sim.assets.loading import ModuleAsset
+from sim.task.config import TaskConfig
+from sim.bench.stress import Run, StressConfig, _figures, module_runs, press_as_force
+from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, _warp
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
 
@@ -77,7 +77,7 @@ def stress_warp(
     njmax: int = NJMAX,
 ) -> list[dict]:
     """Every run of every module on MuJoCo Warp, one world a run; one record (its figures)
-    a run, as sim.contact_stress.stress gives them. device: a Warp device (None: the GPU if
+    a run, as sim.bench.stress.stress gives them. device: a Warp device (None: the GPU if
     there is one)."""
     wp, mjw = _warp()
     plan = [(a, *module_runs(a, cfg)) for a in assets]

@@ -20,7 +20,7 @@ from assetgen.core.rotations import (
     rot6d,
     rotvec_to_quat,
 )
-from sim.config import TaskConfig
+from sim.task.config import TaskConfig
 
 OBS_DIM = 18
 ACT_DIM = 6

@@ -1,6 +1,6 @@
 """BatchSim's contract on a second engine: PhysX 5 on the CPU (SAPIEN 3), the referee.
 
-Each module is read from its USD file (sim/usd_module.py): the convex collision pieces, the
+Each module is read from its USD file (sim/engines/physx/usd_module.py): the convex collision pieces, the
 peg's collision mesh and its mass properties. Every env lives in one PhysX scene, on a grid
 `spacing` apart, and collides only with its own module (collision groups: the upper 16 bits
 of the fourth group word are the env's id, which PhysX's filter never pairs across). The
@@ -27,12 +27,12 @@ import numpy as np
 
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
-from sim import step_kernel as K
-from sim.assets import AssetError, ModuleAsset
-from sim.batch import PegStateViews
-from sim.config import PhysicsConfig, TaskConfig
-from sim.physx_config import PhysxConfig
-from sim.usd_module import UsdModule, load_usd_module
+from sim.task import kernel as K
+from sim.assets.loading import AssetError, ModuleAsset
+from sim.engines.mujoco.batch import PegStateViews
+from sim.task.config import PhysicsConfig, TaskConfig
+from sim.engines.physx.config import PhysxConfig
+from sim.engines.physx.usd_module import UsdModule, load_usd_module
 
 
 def _sapien():
@@ -175,7 +175,7 @@ def _planes(points: np.ndarray) -> np.ndarray:
 
 
 class PhysxBatchSim(PegStateViews):
-    """`num_envs` peg-in-hole scenes in one PhysX scene; the interface of sim.batch.BatchSim
+    """`num_envs` peg-in-hole scenes in one PhysX scene; the interface of sim.engines.mujoco.batch.BatchSim
     that PegInHoleVecEnv uses for evaluation (no module rotation, no saved env state)."""
 
     def __init__(

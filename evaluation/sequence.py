@@ -30,10 +30,10 @@ from typing import Any
 import numpy as np
 
 from assetgen.core.recorded_path import recorded_path
-from sim import task as T
-from sim.assembly_assets import AssemblyStages
-from sim.assets import AssetError
-from sim.config import TaskConfig
+from sim.task import rules as T
+from sim.assets.assembly import AssemblyStages
+from sim.assets.loading import AssetError
+from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
 
 SUCCESS, FAILURE, TRUNCATED = 0, 1, 2
@@ -55,7 +55,7 @@ def pressed_home(
 
 
 class _Ends:
-    """rl/evaluate.py's Recorder that keeps each counted episode's outcome, time to success
+    """evaluation/protocol.py's Recorder that keeps each counted episode's outcome, time to success
     and the part's final pose, by (env, attempt); and, for the (env, attempt) pairs in
     `trace`, the part's true pose (7,) after every control step, the spawn first."""
 
@@ -100,7 +100,7 @@ class _Ends:
 def _offset(
     progress: Callable[[str, int, int], None] | None, part: str, start: int, total: int
 ) -> Callable[[int, int], None] | None:
-    """rl/evaluate.py's progress(done, total) of one chunk as the stage's."""
+    """evaluation/protocol.py's progress(done, total) of one chunk as the stage's."""
     if progress is None:
         return None
     return lambda done, _: progress(part, start + done, total)
@@ -139,7 +139,7 @@ def evaluate_sequence(
 ) -> dict[str, Any]:
     """Play every assembly in `module_dirs` `attempts` times through all its steps.
 
-    policy, reset : as rl/evaluate.py's (a recurrent policy's state restarts each episode)
+    policy, reset : as evaluation/protocol.py's (a recurrent policy's state restarts each episode)
     wrap          : applied to each stage's env (observation stacking)
     progress      : (stage part, episodes done, episodes of the stage)
     record        : a folder for the first attempt of the first `record_limit` assemblies
@@ -150,7 +150,7 @@ def evaluate_sequence(
     succeeded), `sequence` (every stage succeeded; time = sum of the stages'), and
     `per_module` (each assembly's sequence success rate).
     """
-    from rl.evaluate import evaluate
+    from evaluation.protocol import evaluate
 
     if attempts < 1:
         raise ValueError(f"attempts = {attempts}: give at least 1 episode per assembly")
@@ -289,7 +289,7 @@ def is_assembly_dataset(dataset: str | Path) -> bool:
     Table I's peg-in-hole), which `assetgen eval` plays in sequence."""
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import DatasetError
-    from sim.assets import dataset_root
+    from sim.assets.loading import dataset_root
 
     try:
         return Dataset(dataset_root(dataset)).spec.family != "peg-in-hole"
@@ -318,7 +318,7 @@ def evaluate_assembly_dataset(
     `modules` assemblies only (None: all, the protocol)."""
     from assetgen.core.mujoco_config import physics_from_record
     from assetgen.dataset.reader import Dataset, content_hash
-    from sim.assets import check_physics, dataset_root
+    from sim.assets.loading import check_physics, dataset_root
     from sim.env import eval_config
 
     root = dataset_root(dataset)

@@ -17,7 +17,7 @@ import numpy as np
 from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
 from assetgen.core.mesh import StoredMesh
 from assetgen.core.stl import read_stl_mm
-from sim.assets import AssetError, ModuleAsset, _frame, _read
+from sim.assets.loading import AssetError, ModuleAsset, _frame, _read
 
 
 class AssemblyStages:

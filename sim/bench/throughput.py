@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from mujoco import rollout
 
-from sim.config import EVAL_CONFIG, TaskConfig
+from sim.task.config import EVAL_CONFIG, TaskConfig
 from sim.env import PegInHoleVecEnv
 
 
@@ -145,7 +145,7 @@ def bench_physx(
     reset), in `rounds` interleaved rounds. The same keys as bench_sim's where they apply;
     the raw figures are PhysX's."""
     from assetgen.dataset.reader import Dataset
-    from sim.assets import load_dataset
+    from sim.assets.loading import load_dataset
 
     if envs < 1:
         raise ValueError(f"envs = {envs}: give at least 1")
@@ -196,7 +196,7 @@ def bench_warp(
     env layer (raw: the commands and states up, the substeps on the device, the states
     back). The same keys as bench_sim's where they apply, and the device memory in use;
     with `device_env`, bench_warp_device's figures too (the env on the device)."""
-    from sim.expert import direct_expert_action
+    from sim.task.expert import direct_expert_action
 
     t0 = time.perf_counter()
     env = PegInHoleVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True,
@@ -254,13 +254,13 @@ def bench_warp_device(
     seed: int = 0,
     hidden: tuple[int, ...] = (512, 512),
 ) -> dict:
-    """The env on the device (sim/warp_env.py) at `envs` envs over `steps` control steps:
+    """The env on the device (sim/engines/warp/env.py) at `envs` envs over `steps` control steps:
     env steps/s with random actions drawn on the device, and with a policy network's
     forward pass on the device in the loop (an MLP of `hidden` ELU layers, the `paper`
     preset's, observation to action as a PPO rollout takes them: no learner updates)."""
     import torch
 
-    from sim.warp_env import WarpTorchVecEnv
+    from sim.engines.warp.env import WarpTorchVecEnv
 
     t0 = time.perf_counter()
     env = WarpTorchVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True)

@@ -32,8 +32,8 @@ import numpy as np
 
 from assetgen.core.mujoco_config import apply_to_spec, geom_friction, velocity_gains
 from assetgen.core.mujoco_config import contact_solref as contact_solref
-from sim.assets import ModuleAsset
-from sim.config import PhysicsConfig
+from sim.assets.loading import ModuleAsset
+from sim.task.config import PhysicsConfig
 
 PEG_SITE = "peg_site"
 REF_SITE = "ref_site"
@@ -214,7 +214,7 @@ def build_spec(
             max_ang_vel=max_ang_vel,
         )
     for i in range(pad_geoms):
-        # inert spheres: they only enlarge the model (see sim/batch.py, capacity model)
+        # inert spheres: they only enlarge the model (see sim/engines/mujoco/batch.py, capacity model)
         g = spec.worldbody.add_geom()
         g.name = f"pad{i}"
         g.size = [0.001, 0, 0]

@@ -3,11 +3,11 @@
 `assetgen/PegInHole-v0` when this module is imported:
 
     import gymnasium as gym
-    import sim.gym_adapter  # registers the id
+    import sim.adapters.gymnasium_env  # registers the id
     env = gym.make("assetgen/PegInHole-v0", dataset="test")
     envs = gym.make_vec("assetgen/PegInHole-v0", num_envs=64, dataset="test")
 
-(or in one line, `gym.make("sim.gym_adapter:assetgen/PegInHole-v0", dataset=...)`).
+(or in one line, `gym.make("sim.adapters.gymnasium_env:assetgen/PegInHole-v0", dataset=...)`).
 
 gymnasium is imported here only, so sim/ works without it (it is an optional dependency).
 """
@@ -140,8 +140,8 @@ def _vec_env(
 ) -> PegInHoleVecEnv:
     from dataclasses import replace
 
-    from sim.assets import check_physics, dataset_root
-    from sim.config import TaskConfig
+    from sim.assets.loading import check_physics, dataset_root
+    from sim.task.config import TaskConfig
 
     root = dataset_root(dataset)
     config = replace(TaskConfig(physics=check_physics(root, keep_physics)), **task)
@@ -166,6 +166,6 @@ def make_vector_env(
 if ENV_ID not in gym.registry:
     gym.register(
         ENV_ID,
-        entry_point="sim.gym_adapter:make_env",
-        vector_entry_point="sim.gym_adapter:make_vector_env",
+        entry_point="sim.adapters.gymnasium_env:make_env",
+        vector_entry_point="sim.adapters.gymnasium_env:make_vector_env",
     )

@@ -1,4 +1,4 @@
-"""The per-step task arithmetic of sim/step_kernel.py on torch tensors, for an engine whose
+"""The per-step task arithmetic of sim/task/kernel.py on torch tensors, for an engine whose
 states live on a GPU (MuJoCo Warp): command, observe, score and the unstable test run where
 the states are, so a torch agent's actions and observations need no trip through the host.
 
@@ -17,8 +17,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 import torch
 
-from sim import step_kernel as K
-from sim.config import TaskConfig
+from sim.task import kernel as K
+from sim.task.config import TaskConfig
 
 
 @dataclass(frozen=True)

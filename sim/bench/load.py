@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from assetgen.core.mesh import Mesh
-from sim.assets import MJCF_FILE, load_module
+from sim.assets.loading import MJCF_FILE, load_module
 
 
 def _per_module_ms(fn, items, rounds: int) -> float:

@@ -1,7 +1,7 @@
-"""The contact stress benchmark's runs (sim/contact_stress.py) on PhysX, the referee engine.
+"""The contact stress benchmark's runs (sim/bench/stress.py) on PhysX, the referee engine.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`contact_stress._figures`), stepped in PhysX (sim/physx_batch.py): `batch` runs of a
+figures (`contact_stress._figures`), stepped in PhysX (sim/engines/physx/batch.py): `batch` runs of a
 module at a time, one env each, the drives' targets set before every physics step, the state
 and the deepest contact penetration read after it. MuJoCo's contact sensor gives the distance
 of its contacts; PhysX's contact points give their separation, the same quantity.
@@ -15,10 +15,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sim.assets import ModuleAsset
-from sim.config import TaskConfig
-from sim.contact_stress import Run, StressConfig, _figures, module_runs, press_as_force
-from sim.physx_config import PhysxConfig
+from sim.assets.loading import ModuleAsset
+from sim.task.config import TaskConfig
+from sim.bench.stress import Run, StressConfig, _figures, module_runs, press_as_force
+from sim.engines.physx.config import PhysxConfig
 
 
 def run_module_physx(
@@ -29,7 +29,7 @@ def run_module_physx(
     batch: int = 16,
 ) -> list[dict]:
     """Every run of one module on PhysX; one record (its figures) a run."""
-    from sim.physx_batch import PhysxBatchSim
+    from sim.engines.physx.batch import PhysxBatchSim
 
     runs, geo = module_runs(asset, cfg)
     sim = PhysxBatchSim([asset] * min(batch, len(runs)), task, physx)

@@ -1,4 +1,4 @@
-"""The PhysX settings of the referee engine (sim/physx_batch.py), in PhysX's own terms.
+"""The PhysX settings of the referee engine (sim/engines/physx/batch.py), in PhysX's own terms.
 
 MuJoCo's `PhysicsConfig` describes a soft-contact engine (time constants, damping ratios,
 impedance); PhysX's contacts are rigid constraints found ahead of time within a contact

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.assets import AssetError, ModuleAsset
+from sim.assets.loading import AssetError, ModuleAsset
 
 USD_FILE = "peg_in_hole.usda"
 PIECES_VARIANT = ("collider", "convex_pieces")

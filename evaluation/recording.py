@@ -2,7 +2,7 @@
 for the browser preview: module_id, poses (T, 7) true position + quaternion (w x y z) after
 each control step, spawn_pose (7,), reward (T,), success; optionally dt (seconds per step).
 
-`EpisodeRecorder` follows the recorder protocol of the evaluation loop (rl/evaluate.py), so
+`EpisodeRecorder` follows the recorder protocol of the evaluation loop (evaluation/protocol.py), so
 the scripted, random and trained agents record the same way.
 """
 
