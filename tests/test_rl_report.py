@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from rl.metrics import BASE_COLUMNS
 from rl.report import (
     ReportError,
     load_eval,
@@ -25,7 +26,6 @@ from rl.report import (
     variant_name,
     write_report,
 )
-from rl.runner import BASE_COLUMNS
 
 
 def fake_run(
@@ -318,7 +318,7 @@ def test_readme_table_is_replaced_between_its_markers(tmp_path: Path) -> None:
 
 
 def test_probe_curves_from_the_probe_rows_only(tmp_path: Path) -> None:
-    from rl.runner import PROBE_COLUMNS
+    from rl.metrics import PROBE_COLUMNS
 
     def probed(path: Path, seed: int, probe: dict[int, float]) -> Path:
         fake_run(path, "sac", 1, seed, [64, 128, 192, 256], [0.9, 0.95, 1.0, 1.0])
