@@ -419,7 +419,7 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
 
             from rl.agents import acting_state_hooks, reset_hook
             from rl.checkpoint import CheckpointError, read_counters
-            from rl.report import variant_name
+            from rl.report_load import variant_name
             from rl.run_state import load_agent
             from rl.stack import StackObs
 
