@@ -22,7 +22,8 @@ def checkpoint_policy(
     thread and seeded, so that a probe's sampled actions repeat."""
     import torch
 
-    from rl.runner import load_agent, reset_hook
+    from rl.agents import reset_hook
+    from rl.run_state import load_agent
 
     torch.set_num_threads(1)
     torch.manual_seed(seed)

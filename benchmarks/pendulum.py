@@ -27,7 +27,9 @@ from rl.gym_vec import GymVecEnv
 from rl.ppo import PPOConfig
 from rl.presets import Setup
 from rl.random_agent import RandomConfig
-from rl.runner import console, load_agent, reset_hook, train
+from rl.agents import reset_hook
+from rl.run_state import load_agent
+from rl.runner import console, train
 from rl.sac import SACConfig
 
 PENDULUM: dict[str, Setup] = {

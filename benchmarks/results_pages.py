@@ -208,7 +208,7 @@ def superseded_variants(page: Page) -> frozenset[str]:
     import json
 
     from benchmarks.table3 import ROWS
-    from rl.report import variant_name
+    from rl.report_load import variant_name
 
     names = set()
     for run in page.run_paths():
@@ -222,7 +222,8 @@ def superseded_variants(page: Page) -> frozenset[str]:
 
 def page_table(page: Page, compact: bool = False) -> str:
     """The markdown table the page's inputs give now; compact: the README's short form."""
-    from rl.report import compact_table, load_summary, markdown_table
+    from rl.report import load_summary
+    from rl.report_tables import compact_table, markdown_table
 
     summary, _ = load_summary(page.run_paths(), page.baseline_paths(), page.screening)
     if compact:

@@ -13,8 +13,10 @@ episode is written as an episode .npz (default folder: a new temporary one, prin
 "Load episode" replays. NaN actions stop the run with a message in the page.
 
 Modules: scene.py (meshes, frames, lift, section cut, filters; no viser), episode.py (episode
-files), nodes.py (viser scene nodes), server.py (live GUI), live.py (a policy stepping the
-simulator; imports torch, rl and sim only when a policy is given), snapshot.py (HTML export).
+files), nodes.py (viser scene nodes), server.py (the viser server and the live GUI, whose
+PreviewApp is made of browse.py (dataset, modules, grid, scene updates), player.py (episode
+replay) and live_panel.py (the Policy folder)), live.py (a policy stepping the simulator;
+imports torch, rl and sim only when a policy is given), snapshot.py (HTML export).
 Names are imported lazily so that `assetgen` commands other than `view` never import viser.
 """
 

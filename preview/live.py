@@ -34,7 +34,7 @@ from assetgen.core.rotations import matrix_to_quat, rot6d_to_matrix
 from preview.scene import PreviewError
 
 CHECKPOINT = "checkpoint.safetensors"
-"""The file a run or exported policy folder holds (rl.runner.CHECKPOINT; not imported from
+"""The file a run or exported policy folder holds (rl.run_state.CHECKPOINT; not imported from
 there because that imports torch, and a missing file is reported without it)."""
 RECORDING = re.compile(r"live_(\d+)_.+\.npz")
 """Names of the episode files written here: live_<number>_<module>.npz."""
@@ -104,7 +104,7 @@ def load_policy(path: str | Path) -> tuple[Any, dict[str, Any]]:
     PreviewError for a missing or corrupt checkpoint and for one trained on observations or
     actions of another size (naming the checkpoint's and the task's)."""
     from rl.checkpoint import CheckpointError
-    from rl.runner import load_agent
+    from rl.run_state import load_agent
     from sim.task.rules import ACT_DIM, OBS_DIM
 
     ckpt = find_checkpoint(path)
@@ -148,7 +148,7 @@ class LivePolicy:
     ) -> None:
         import torch
 
-        from rl.runner import reset_hook
+        from rl.agents import reset_hook
 
         self.checkpoint = find_checkpoint(path)
         self.agent, self.meta = load_policy(path)

@@ -1,5 +1,6 @@
 """What the preview shows, as plain numpy data (no viser): one module's meshes and frames in
-metres, the peg lifted along the hole axis, the section cut, filters and the grid layout.
+metres, the peg lifted along the hole axis, the section cut, filters and the grid layout;
+and `md_escape` for text shown in the GUI's markdown.
 
 Everything here is in the module frame (origin at the centre of the plate's top surface,
 z up), in metres; the STL files it reads are millimetres (see docs/module.md).
@@ -126,6 +127,17 @@ def grid_positions(n: int, spacing: float) -> np.ndarray:
     x = (k % cols - (cols - 1) / 2.0) * spacing
     y = -(k // cols - (rows - 1) / 2.0) * spacing
     return np.stack([x, y, np.zeros(n)], axis=1)
+
+
+def md_escape(text: str) -> str:
+    """`text` with markdown's special characters backslash-escaped, for the GUI's markdown."""
+    out = []
+    for ch in text:
+        if ch in "\\`*_{}[]()#+-.!|<>~":
+            out.append("\\" + ch)
+        else:
+            out.append(ch)
+    return "".join(out)
 
 
 def _manifold(mesh: Mesh):

@@ -44,7 +44,7 @@ def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
     """`--set FIELD=VALUE` items -> {field: value} for `algo`'s config, each value parsed as
     the field's default is typed (ValueError naming the field and the valid ones)."""
     from assetgen.core.overrides import parse_overrides as parse
-    from rl.runner import ALGOS
+    from rl.agents import ALGOS
 
     return parse(ALGOS[algo], items)
 
@@ -417,9 +417,10 @@ def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
         if run is not None:
             import torch
 
+            from rl.agents import acting_state_hooks, reset_hook
             from rl.checkpoint import CheckpointError, read_counters
-            from rl.report import variant_name
-            from rl.runner import acting_state_hooks, load_agent, reset_hook
+            from rl.report_load import variant_name
+            from rl.run_state import load_agent
             from rl.stack import StackObs
 
             threads = getattr(args, "threads", None)
@@ -633,7 +634,7 @@ def add_export_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
 
 def export_main(args: argparse.Namespace) -> int:
     from rl.checkpoint import CheckpointError
-    from rl.runner import export_policy
+    from rl.export import export_policy
 
     try:
         res = export_policy(args.run, args.out)

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from typing import Any
 
 from evaluation.protocol import evaluate
-from rl.runner import reset_hook
+from rl.agents import reset_hook
 from rl.stack import StackObs
 
 

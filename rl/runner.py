@@ -21,165 +21,46 @@ uninterrupted one, on the same device and thread count) needs one of:
     stopped on --steps/--minutes elsewhere is correct but not bit-identical.
 Counters, RNG states (torch CPU and CUDA, numpy's global, Python's), optimiser states, the
 SAC replay buffer, Dreamer's sequence replay (up to its checkpoint_replay_mb) and per-env
-recurrent state, and the episode-statistics window are all saved. A recurrent agent's
-`reset(mask)` is called after every env.reset (see Agent).
+recurrent state, and the episode-statistics window are all saved (rl/run_state.py). A
+recurrent agent's `reset(mask)` is called after every env.reset (see rl/agents.py's Agent).
 A NaN/inf loss or action stops training with a message; the last good checkpoint is kept
 (a checkpoint is never written from non-finite weights).
+
+The pieces around the loop live beside it: rl/agents.py (the algorithms, building an
+agent), rl/run_state.py (checkpoint state: save, resume, load_agent), rl/metrics.py
+(metrics.csv columns, episode statistics, the CSV/TensorBoard writer), rl/progress.py (the
+console and progress bar) and rl/export.py (export_policy).
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import math
-import os
 import random
 import time
-from collections import deque
 from collections.abc import Callable
-from dataclasses import asdict, fields, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import torch
-from rich.console import Console
 
 from rl import checkpoint as ckpt
-from rl.dreamer.agent import Dreamer
-from rl.dreamer.config import DreamerConfig
-from rl.host_view import HostView, host
+from rl.agents import Agent, build_agent, default_device, reset_hook
+from rl.host_view import HostView
+from rl.metrics import BASE_COLUMNS, PROBE_COLUMNS, EpisodeStats, MetricsLog
 from rl.nets import NonFiniteLossError
-from rl.ppo import PPO, PPOConfig
-from rl.presets import AlgoConfig, Setup, get_setup
-from rl.random_agent import RandomAgent, RandomConfig
-from rl.sac import SAC, SACConfig
+from rl.presets import Setup, get_setup
+from rl.progress import ProgressBar, console
+from rl.run_state import CHECKPOINT, load_rng_state, run_meta, save_run, with_new_defaults
 from rl.stack import StackObs
 from rl.vec_env import VecEnv, is_stateful
-
-ALGOS: dict[str, type] = {
-    "ppo": PPOConfig,
-    "sac": SACConfig,
-    "dreamer": DreamerConfig,
-    "random": RandomConfig,
-}
-"""Algorithm name -> its config class."""
-CHECKPOINT = ckpt.FILE_NAME
-BASE_COLUMNS = (
-    "iteration",
-    "env_steps",
-    "wall_s",
-    "steps_per_s",
-    "episodes",
-    "success_rate",
-    "return_mean",
-    "length_mean",
-    "time_to_success_median",
-)
-"""Columns every metrics.csv has. wall_s: wall-clock seconds of training since the run
-began (logs, probes and checkpoints included; a resumed run goes on from its checkpoint's);
-steps_per_s: the env steps of the row's iteration over its own time."""
-
-PROBE_COLUMNS = ("probe_success_rate", "probe_time_to_success_median", "probe_truncation_rate")
-"""Columns of the frozen-policy probe (`train --probe-steps`), empty in other rows."""
-
-console = Console(stderr=True, highlight=False)
-
-
-class Agent(Protocol):
-    """What the runner needs of an algorithm (PPO, SAC, Dreamer, RandomAgent).
-
-    A recurrent agent (Dreamer) also has `reset(mask (N,) bool)`: new episodes start where
-    mask is True. The runner calls it after every env.reset, evaluation/protocol.py after each
-    step; stateless agents need not define it (see `reset_hook`).
-    """
-
-    steps_per_iteration: int
-    log_keys: tuple[str, ...]
-
-    def act(self, obs: np.ndarray) -> np.ndarray: ...
-    def policy(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray: ...
-    def process_step(
-        self,
-        next_obs: np.ndarray,
-        reward: np.ndarray,
-        terminated: np.ndarray,
-        truncated: np.ndarray,
-        info: dict[str, Any],
-    ) -> None: ...
-    def update(self, last_obs: np.ndarray) -> dict[str, float]: ...
-    def modules(self) -> dict[str, torch.nn.Module | torch.optim.Optimizer]: ...
-    def extra_state(self) -> tuple[dict[str, torch.Tensor], dict[str, Any]]: ...
-    def load_extra_state(
-        self, tensors: dict[str, torch.Tensor], values: dict[str, Any]
-    ) -> None: ...
-
-
-def build_agent(
-    algo: str,
-    obs_dim: int,
-    act_dim: int,
-    num_envs: int,
-    config: AlgoConfig,
-    device: str | torch.device,
-    seed: int = 0,
-) -> Agent:
-    """A fresh agent of `algo` ("ppo", "sac", "dreamer", "random")."""
-    if algo == "ppo":
-        return PPO(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
-    if algo == "sac":
-        return SAC(obs_dim, act_dim, num_envs, config, device)  # type: ignore[arg-type]
-    if algo == "dreamer":
-        return Dreamer(obs_dim, act_dim, num_envs, config, device, seed)  # type: ignore[arg-type]
-    if algo == "random":
-        return RandomAgent(act_dim, seed, config)  # type: ignore[arg-type]
-    raise ValueError(f"unknown algorithm {algo!r}; valid algorithms: {sorted(ALGOS)}")
-
-
-def reset_hook(agent: Any) -> Callable[[np.ndarray], None] | None:
-    """The agent's `reset(mask)` when it keeps a recurrent state, else None."""
-    fn = getattr(agent, "reset", None)
-    return fn if callable(fn) else None
-
-
-def acting_state_hooks(agent: Any) -> tuple[Callable[[], Any], Callable[[Any], None]] | None:
-    """(acting_state, load_acting_state) of an agent with a recurrent state, else None: what
-    an evaluation's snapshot saves of the policy (evaluation/protocol.py)."""
-    get, put = getattr(agent, "acting_state", None), getattr(agent, "load_acting_state", None)
-    return (get, put) if callable(get) and callable(put) else None
-
-
-def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
-    """Rebuild a config dataclass from its JSON form (lists back to tuples)."""
-    cls = ALGOS[algo]
-    tuples = {f.name for f in fields(cls) if isinstance(f.default, tuple)}
-    return cls(**{k: tuple(v) if k in tuples else v for k, v in d.items()})
-
-
-def _with_new_defaults(run: dict[str, Any]) -> dict[str, Any]:
-    """A checkpoint's run record with the config fields added since it was written at their
-    defaults (which keep the old behaviour), so that adding a field does not strand runs."""
-    cls = ALGOS.get(run.get("algo", ""))
-    saved = run.get("config")
-    if cls is None or not isinstance(saved, dict):
-        return run
-    if not set(saved) <= {f.name for f in fields(cls)}:  # a removed field: report it as is
-        return run
-    return {**run, "config": _jsonable(asdict(config_from_dict(run["algo"], saved)))}
 
 
 def env_seed(seed: int, iteration: int) -> int:
     """The env seed used at `iteration` (0: the start) of a run seeded `seed`."""
     return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
-
-
-def default_device() -> str:
-    """CUDA when present, else CPU."""
-    return "cuda" if torch.cuda.is_available() else "cpu"
-
-
-def _jsonable(x: Any) -> Any:
-    return json.loads(json.dumps(x))
 
 
 TENSOR_ALGOS = frozenset({"ppo"})
@@ -193,134 +74,6 @@ def _all_finite(actions: Any) -> bool:
     return bool(np.isfinite(actions).all())
 
 
-# ----------------------------------------------------------------------------- statistics
-
-
-class EpisodeStats:
-    """The last `size` finished episodes: (return, length, success, time to success)."""
-
-    def __init__(self, size: int) -> None:
-        self.window: deque[tuple[float, int, bool, float]] = deque(maxlen=size)
-        self.total = 0
-
-    def add(self, done: Any, info: dict[str, Any]) -> None:
-        """Record the episodes that ended where done (N,) is True (arrays or tensors)."""
-        idx = np.flatnonzero(host(done))
-        if not len(idx):
-            return
-        keys = ("episode_return", "episode_length", "success", "time_to_success")
-        r, n, s, t = (host(info[k])[idx] for k in keys)
-        for row in zip(r.tolist(), n.tolist(), s.tolist(), t.tolist(), strict=True):
-            self.window.append((float(row[0]), int(row[1]), bool(row[2]), float(row[3])))
-        self.total += len(idx)
-
-    def summary(self) -> dict[str, float]:
-        """Means over the window (NaN when empty)."""
-        if not self.window:
-            return {
-                k: math.nan
-                for k in ("success_rate", "return_mean", "length_mean", "time_to_success_median")
-            }
-        r, n, s, t = (np.array(c, dtype=float) for c in zip(*self.window, strict=True))
-        t = t[s > 0]
-        return {
-            "success_rate": float(s.mean()),
-            "return_mean": float(r.mean()),
-            "length_mean": float(n.mean()),
-            "time_to_success_median": float(np.median(t)) if len(t) else math.nan,
-        }
-
-    def state(self) -> dict[str, Any]:
-        return {"window": [list(w) for w in self.window], "total": self.total}
-
-    def load(self, state: dict[str, Any]) -> None:
-        self.window.extend(tuple(w) for w in state["window"])
-        self.total = state["total"]
-
-
-class MetricsLog:
-    """metrics.csv (fixed columns) and, when tensorboard is installed, TensorBoard scalars."""
-
-    def __init__(
-        self,
-        out_dir: Path,
-        columns: tuple[str, ...],
-        resume_iteration: int | None,
-        tensorboard: bool,
-    ) -> None:
-        self.path = out_dir / "metrics.csv"
-        self.columns = columns
-        rows: list[dict[str, str]] = []
-        if resume_iteration is not None and self.path.exists():
-            # drop rows logged after the checkpoint: the resumed run logs them again
-            with open(self.path, newline="") as f:
-                rows = [r for r in csv.DictReader(f) if int(r["iteration"]) <= resume_iteration]
-        with open(self.path, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=columns)
-            w.writeheader()
-            w.writerows(rows)
-        self.tb = None
-        if tensorboard:
-            try:
-                from torch.utils.tensorboard import SummaryWriter
-            except ImportError:
-                console.print("tensorboard is not installed: logging to metrics.csv only")
-            else:
-                self.tb = SummaryWriter(str(out_dir / "tb"), purge_step=resume_iteration)
-
-    def write(self, row: dict[str, float]) -> None:
-        with open(self.path, "a", newline="") as f:
-            csv.DictWriter(f, fieldnames=self.columns).writerow(
-                {k: row.get(k, "") for k in self.columns}
-            )
-        if self.tb is not None:
-            step = int(row["env_steps"])
-            for k, v in row.items():
-                if k not in ("iteration", "env_steps") and not math.isnan(v):
-                    self.tb.add_scalar(k, v, step)
-
-    def close(self) -> None:
-        if self.tb is not None:
-            self.tb.close()
-
-
-# ----------------------------------------------------------------------------- checkpoints
-
-
-def _rng_state(tensors: dict[str, torch.Tensor]) -> dict[str, Any]:
-    tensors["rng/torch"] = torch.get_rng_state()
-    if torch.cuda.is_available():
-        for i, s in enumerate(torch.cuda.get_rng_state_all()):
-            tensors[f"rng/cuda/{i}"] = s
-    # numpy's legacy global generator: rl/ does not use it, envs and user code may
-    np_state = np.random.get_state(legacy=False)  # noqa: NPY002
-    key = np_state["state"]["key"].astype(np.int64)  # uint32: stored as int64
-    tensors["rng/numpy_key"] = torch.from_numpy(key)
-    return {
-        "numpy": {k: v for k, v in np_state.items() if k != "state"}
-        | {"pos": np_state["state"]["pos"]},
-        "python": random.getstate(),
-        "cuda_devices": torch.cuda.device_count() if torch.cuda.is_available() else 0,
-    }
-
-
-def _load_rng_state(doc: dict[str, Any], tensors: dict[str, torch.Tensor]) -> None:
-    torch.set_rng_state(tensors["rng/torch"])
-    if torch.cuda.is_available() and doc["cuda_devices"] == torch.cuda.device_count():
-        torch.cuda.set_rng_state_all([tensors[f"rng/cuda/{i}"] for i in range(doc["cuda_devices"])])
-    n = doc["numpy"]
-    key = tensors["rng/numpy_key"].numpy().astype(np.uint32)
-    np_state = {
-        "bit_generator": n["bit_generator"],
-        "has_gauss": n["has_gauss"],
-        "gauss": n["gauss"],
-        "state": {"key": key, "pos": n["pos"]},
-    }
-    np.random.set_state(np_state)  # noqa: NPY002
-    v, internal, gauss = doc["python"]
-    random.setstate((v, tuple(internal), gauss))
-
-
 def _finite(agent: Agent) -> bool:
     return all(
         torch.isfinite(p).all()
@@ -329,17 +82,6 @@ def _finite(agent: Agent) -> bool:
         for p in m.state_dict().values()
         if p.is_floating_point()
     )
-
-
-def env_physics(env: Any) -> dict[str, Any] | None:
-    """The simulator's physics settings of `env` (through wrappers such as StackObs), or None
-    for an env without them (a toy env)."""
-    while env is not None:
-        physics = getattr(getattr(env, "cfg", None), "physics", None)
-        if physics is not None:
-            return asdict(physics)
-        env = getattr(env, "env", None)
-    return None
 
 
 def env_curriculum(env: Any) -> Any | None:
@@ -351,134 +93,6 @@ def env_curriculum(env: Any) -> Any | None:
             return found
         env = getattr(env, "env", None)
     return None
-
-
-def run_meta(algo: str, config: AlgoConfig, env: VecEnv, stack: int, seed: int) -> dict[str, Any]:
-    """What must match between a checkpoint and the run that resumes it (the env's physics
-    among it: a run continued on a dataset of other physics would mix two tasks)."""
-    physics = env_physics(env)
-    return _jsonable(
-        {
-            "algo": algo,
-            "config": asdict(config),
-            "obs_dim": env.obs_dim,
-            "act_dim": env.act_dim,
-            "stack": stack,
-            "num_envs": env.num_envs,
-            "seed": seed,
-            **({} if physics is None else {"physics": physics}),
-        }
-    )
-
-
-def save_run(
-    path: Path,
-    meta: dict[str, Any],
-    agent: Agent,
-    counters: dict[str, Any],
-    stats: EpisodeStats,
-    env: VecEnv,
-    obs: np.ndarray,
-) -> None:
-    """Write the checkpoint of a run at an iteration boundary."""
-    tensors: dict[str, torch.Tensor] = {}
-    extra_t, extra_v = agent.extra_state()
-    doc = {
-        "run": meta,
-        "counters": counters,
-        "agent": ckpt.pack_modules(agent.modules(), "agent", tensors),
-        "agent_extra": {"values": extra_v, "tensors": ckpt.pack(extra_t, "extra", tensors)},
-        "rng": _rng_state(tensors),
-        "episodes": stats.state(),
-        "env": None,
-        "versions": {"torch": torch.__version__, "numpy": np.__version__},
-    }
-    if is_stateful(env):
-        doc["env"] = {
-            "state": ckpt.pack(env.get_state(), "env", tensors),
-            "obs": ckpt.pack(np.asarray(obs), "obs", tensors),
-        }
-    ckpt.save(path, tensors, _jsonable(doc))
-
-
-def load_agent(
-    path: str | Path, device: str | torch.device | None = None
-) -> tuple[Agent, dict[str, Any]]:
-    """(agent with the checkpoint's weights, its run metadata: algo, config, obs_dim,
-    act_dim, stack, num_envs, seed) from a checkpoint file or a run folder."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / CHECKPOINT
-    tensors, doc = ckpt.load(path)
-    return _agent_from(tensors, doc, path, device), doc["run"]
-
-
-def _agent_from(
-    tensors: dict[str, torch.Tensor],
-    doc: dict[str, Any],
-    path: Path,
-    device: str | torch.device | None,
-) -> Agent:
-    """The agent a loaded checkpoint (tensors, JSON document) describes, with its weights."""
-    meta = doc["run"]
-    if meta["algo"] not in ALGOS:
-        raise ckpt.CheckpointError(f"{path}: unknown algorithm {meta['algo']!r}")
-    agent = build_agent(
-        meta["algo"],
-        meta["obs_dim"],
-        meta["act_dim"],
-        meta["num_envs"],
-        config_from_dict(meta["algo"], meta["config"]),
-        device or default_device(),
-        meta["seed"],
-    )
-    modules = agent.modules()
-    if doc.get("policy_only"):  # an exported policy: the networks, no optimisers
-        modules = {k: m for k, m in modules.items() if isinstance(m, torch.nn.Module)}
-    ckpt.load_modules(modules, doc["agent"], tensors)
-    return agent
-
-
-RUN_FILES = ("config.json", "metrics.csv")
-"""Copied by `export_policy` with the weights: what `assetgen report` reads of a run."""
-
-
-def export_policy(run: str | Path, out_dir: str | Path) -> dict[str, Any]:
-    """Write a run's networks, without optimiser states, replay buffer or RNG states, to
-    out_dir/checkpoint.safetensors (what `load_agent` and `assetgen eval --checkpoint` read;
-    it cannot be resumed), with the run's config.json, metrics.csv and evaluation files.
-    Returns {"files": {name: bytes}}. The folder is filled under a temporary name and then
-    renamed, so an interrupted export leaves nothing half-written."""
-    import shutil
-
-    run = Path(run)
-    src = run / CHECKPOINT if run.is_dir() else run
-    tensors, doc = ckpt.load(src)
-    if doc.get("policy_only"):
-        raise ckpt.CheckpointError(f"{src} is already an exported policy")
-    agent = _agent_from(tensors, doc, src, "cpu")
-    keep: dict[str, torch.Tensor] = {}
-    nets = {k: m for k, m in agent.modules().items() if isinstance(m, torch.nn.Module)}
-    out_doc = {
-        "run": doc["run"],
-        "counters": doc["counters"],
-        "agent": ckpt.pack_modules(nets, "agent", keep),
-        "policy_only": True,
-        "versions": doc.get("versions", {}),
-    }
-    out_dir = Path(out_dir)
-    if out_dir.exists():
-        raise ckpt.CheckpointError(f"{out_dir} exists: choose a new folder for the export")
-    tmp = out_dir.with_name(f".{out_dir.name}.tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
-    ckpt.save(tmp / CHECKPOINT, keep, out_doc)
-    folder = src.parent
-    for f in [*(folder / n for n in RUN_FILES), *sorted(folder.glob("eval_*.json"))]:
-        if f.is_file():
-            shutil.copy2(f, tmp / f.name)
-    os.replace(tmp, out_dir)
-    return {"files": {f.name: f.stat().st_size for f in sorted(out_dir.iterdir())}}
 
 
 # ----------------------------------------------------------------------------- train
@@ -590,11 +204,11 @@ def train(
                 f"(timestep {meta['physics']['timestep']} s)[/]"
             )
             wanted = {k: v for k, v in meta.items() if k != "physics"}
-        ckpt.check_compatible(_with_new_defaults(doc["run"]), wanted, path)
+        ckpt.check_compatible(with_new_defaults(doc["run"]), wanted, path)
         ckpt.load_modules(agent.modules(), doc["agent"], tensors)
         extra = doc["agent_extra"]
         agent.load_extra_state(ckpt.unpack(extra["tensors"], tensors), extra["values"])
-        _load_rng_state(doc["rng"], tensors)
+        load_rng_state(doc["rng"], tensors)
         stats.load(doc["episodes"])
         c = doc["counters"]
         iteration, env_steps, wall = c["iteration"], c["env_steps"], c["wall_s"]
@@ -628,7 +242,7 @@ def train(
     columns = BASE_COLUMNS + tuple(agent.log_keys) + (PROBE_COLUMNS if probe else ())
     columns += ("curriculum_scale",) if curriculum is not None else ()
     log = MetricsLog(out_dir, columns, iteration if resume else None, tensorboard)
-    bar = _Progress(progress, steps, env_steps)
+    bar = ProgressBar(progress, steps, env_steps)
     t_start = time.perf_counter()
     wall_before = wall  # spent before this call (a resumed run's checkpoint)
     first_iteration = iteration
@@ -738,45 +352,3 @@ def _save(
 ) -> None:
     counters = {"iteration": iteration, "env_steps": env_steps, "wall_s": wall}
     save_run(path, meta, agent, counters, stats, env, obs)
-
-
-class _Progress:
-    """A rich progress bar over env steps (or elapsed time only when there is no total)."""
-
-    def __init__(self, enabled: bool, total: int | None, done: int) -> None:
-        self.p = None
-        if not enabled:
-            return
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self.p = Progress(
-            TextColumn("[bold]train"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[info]}"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=console,
-        )
-        self.p.start()
-        self.task = self.p.add_task("train", total=total, completed=done, info="")
-
-    def update(self, advance: int, row: dict[str, float]) -> None:
-        if self.p is None:
-            return
-        info = (
-            f"{row['steps_per_s']:,.0f} steps/s  success {row['success_rate']:.1%}  "
-            f"return {row['return_mean']:.3f}"
-        )
-        self.p.update(self.task, advance=advance, info=info)
-
-    def close(self) -> None:
-        if self.p is not None:
-            self.p.stop()

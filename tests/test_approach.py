@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-import rl.runner
+import rl.run_state
 from benchmarks import approach
 from sim.task.expert import direct_expert_action
 from tests.test_sim_common import sim_dataset
@@ -20,7 +20,7 @@ class HalfSpeed:
 
 
 def test_a_slower_policy_reaches_every_mark_later(monkeypatch, tmp_path, capsys) -> None:
-    monkeypatch.setattr(rl.runner, "load_agent", lambda path, device=None: (HalfSpeed(), {}))
+    monkeypatch.setattr(rl.run_state, "load_agent", lambda path, device=None: (HalfSpeed(), {}))
     out = tmp_path / "approach.json"
     assert approach.main(["unused", "--dataset", str(sim_dataset()), "--modules", "2",
                           "--json", str(out)]) == 0  # fmt: skip

@@ -25,7 +25,7 @@ def test_shipped_policy_evaluates(folder: Path, tmp_path: Path, monkeypatch) -> 
     import torch
 
     from cli import main
-    from rl.runner import load_agent
+    from rl.run_state import load_agent
     from tests.test_sim_common import sim_dataset
 
     torch.set_num_threads(1)

@@ -225,9 +225,9 @@ def test_commands_start_without_importing_torch():
     )
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
+    from rl.agents import ALGOS
     from rl.names import ALGO_NAMES, PRESET_NAMES
     from rl.presets import PRESETS
-    from rl.runner import ALGOS
 
     assert sorted(ALGO_NAMES) == sorted(ALGOS)
     assert sorted(PRESET_NAMES) == sorted(PRESETS)

@@ -29,7 +29,9 @@ from rl.dreamer.replay import ReplayMemoryError, SequenceReplay
 from rl.dreamer.world_model import State
 from evaluation.protocol import evaluate
 from rl.presets import Setup, get_setup
-from rl.runner import load_agent, reset_hook, train
+from rl.agents import reset_hook
+from rl.run_state import load_agent
+from rl.runner import train
 from tests.test_rl_runner import Interrupt, NaNAfter, _weights
 from tests.toy_env import StatefulToyEnv, ToyEnv
 

@@ -12,7 +12,7 @@ import torch
 from rl.dreamer.agent import Dreamer
 from evaluation.snapshots import EvalSnapshots, snapshot_progress
 from evaluation.protocol import evaluate
-from rl.runner import acting_state_hooks, reset_hook
+from rl.agents import acting_state_hooks, reset_hook
 from sim.task.expert import direct_expert_action
 from tests.test_dreamer import TINY
 from tests.test_sim_common import make_env, quiet

@@ -8,7 +8,7 @@ import json
 import numpy as np
 
 import rl.checkpoint
-import rl.runner
+import rl.run_state
 from benchmarks import jams
 from sim.task.expert import direct_expert_action
 from tests.test_sim_common import sim_dataset
@@ -27,7 +27,7 @@ class OffAxis:
 def test_a_peg_pressed_down_beside_the_hole_is_reported_as_a_jam(
     monkeypatch, tmp_path, capsys
 ) -> None:
-    monkeypatch.setattr(rl.runner, "load_agent", lambda path, device=None: (OffAxis(), {}))
+    monkeypatch.setattr(rl.run_state, "load_agent", lambda path, device=None: (OffAxis(), {}))
     monkeypatch.setattr(rl.checkpoint, "read_counters", lambda path: {"env_steps": 4096})
     out = tmp_path / "jams.json"
     assert jams.main(["unused", "--dataset", str(sim_dataset()), "--modules", "2",

@@ -9,7 +9,8 @@ import torch
 from rl import checkpoint as ckpt
 from rl.ppo import PPOConfig
 from rl.presets import Setup
-from rl.runner import CHECKPOINT, load_agent, train
+from rl.run_state import CHECKPOINT, load_agent
+from rl.runner import train
 from tests.toy_env import ToyEnv
 
 torch.set_num_threads(1)

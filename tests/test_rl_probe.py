@@ -13,7 +13,7 @@ import torch
 from rl.checkpoint import CheckpointError
 from rl.dreamer.agent import Dreamer
 from rl.probe import make_probe
-from rl.runner import load_agent
+from rl.run_state import load_agent
 from tests.test_dreamer import SETUP as DREAMER_SETUP
 from tests.test_dreamer import TINY
 from tests.test_rl_runner import SAC_SETUP, Interrupt, _train, _weights

@@ -16,16 +16,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from rl.report import (
-    ReportError,
-    load_eval,
-    load_run,
-    markdown_table,
-    summarise,
-    variant_name,
-    write_report,
-)
-from rl.runner import BASE_COLUMNS
+from rl.metrics import BASE_COLUMNS
+from rl.report import write_report
+from rl.report_load import ReportError, load_eval, load_run, variant_name
+from rl.report_summary import summarise
+from rl.report_tables import markdown_table
 
 
 def fake_run(
@@ -158,7 +153,7 @@ def test_wall_clock_curves_and_training_budgets(tmp_path: Path) -> None:
 
 
 def test_a_long_wall_clock_curve_is_thinned_to_even_points(tmp_path: Path) -> None:
-    from rl.report import WALL_POINTS
+    from rl.report_summary import WALL_POINTS
 
     steps = list(range(100, 100 * 1001, 100))
     walls = [0.37 * i + 0.001 * (i % 7) for i in range(1, 1001)]  # uneven log times
@@ -318,7 +313,7 @@ def test_readme_table_is_replaced_between_its_markers(tmp_path: Path) -> None:
 
 
 def test_probe_curves_from_the_probe_rows_only(tmp_path: Path) -> None:
-    from rl.runner import PROBE_COLUMNS
+    from rl.metrics import PROBE_COLUMNS
 
     def probed(path: Path, seed: int, probe: dict[int, float]) -> Path:
         fake_run(path, "sac", 1, seed, [64, 128, 192, 256], [0.9, 0.95, 1.0, 1.0])
@@ -368,7 +363,7 @@ def test_the_readme_table_puts_sampled_actions_beside_the_mean_and_test_only(
 ) -> None:
     """compact_table: one line per agent (its sampled-action figure in a cell, not a row of
     its own), the test split only, a link to the full page for the rest."""
-    from rl.report import compact_table
+    from rl.report_tables import compact_table
 
     runs = []
     for seed, (det, smp) in enumerate([(0.8, 0.9), (0.6, 0.7)]):
@@ -400,7 +395,7 @@ def test_the_readme_table_puts_sampled_actions_beside_the_mean_and_test_only(
 def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
     """Six variants whose names hashed to shared colours before: all distinct now, and the
     same variant gets the same colour in every plot of one report."""
-    from rl.report import palette
+    from rl.report_plots import palette
 
     names = {
         "scripted",

@@ -17,7 +17,8 @@ from rl.commands import EvalHooks, add_train_parser, eval_main
 from evaluation.protocol import evaluate
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
-from rl.runner import CHECKPOINT, load_agent, train
+from rl.run_state import CHECKPOINT, load_agent
+from rl.runner import train
 from rl.sac import SACConfig
 from rl.stack import StackObs
 from tests.toy_env import StatefulToyEnv, ToyEnv
@@ -279,7 +280,7 @@ def test_commands(tmp_path, capsys) -> None:
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_exported_policy_acts_like_the_run_and_is_small(algo, tmp_path) -> None:
     from rl.checkpoint import CheckpointError
-    from rl.runner import export_policy
+    from rl.export import export_policy
 
     setup = PPO_SETUP if algo == "ppo" else SAC_SETUP
     run = tmp_path / "run"

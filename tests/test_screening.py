@@ -9,7 +9,9 @@ import pytest
 from benchmarks.screening import main, screen
 from cli import main as assetgen
 from rl.checkpoint import read_counters
-from rl.report import load_run, markdown_table, summarise
+from rl.report_load import load_run
+from rl.report_summary import summarise
+from rl.report_tables import markdown_table
 
 
 def test_a_candidate_is_screened_once_and_filed_under_its_name(

@@ -1,4 +1,4 @@
-"""The DreamerV3 agent the runner drives (rl/runner.py's Agent protocol), for N envs.
+"""The DreamerV3 agent the runner drives (rl/agents.py's Agent protocol), for N envs.
 
 Every env step: `act(obs)` updates each env's recurrent state (h, z, previous action) with
 the new observation (one batched posterior step for all envs) and draws the actions
