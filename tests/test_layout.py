@@ -178,6 +178,13 @@ def private_imports(modules: dict[str, Path] | None = None) -> list[str]:
                         and _package(node.module, modules) != _package(name, modules)
                     ):
                         found.add(f"{name} -> {node.module}.{a.name}")
+        # a name the file also assigns (`sim = Sim(...)` beside `import sim.env`) is not
+        # taken for the module: no false alarm for an object's own private attribute
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                alias.pop(node.id, None)
+            elif isinstance(node, ast.arg):
+                alias.pop(node.arg, None)
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and _private(node.attr):
                 base = _dotted(node.value, alias)
@@ -213,6 +220,11 @@ def test_private_imports_are_found(tmp_path, monkeypatch):
         "a/c/n.py": (
             "import a.b.m\nimport a.b.m as mm\nfrom a.b import m\nfrom a.b.m import __dunder__\n"
             "def f():\n    from a.b.m import _f\n    return a.b.m._g, mm._h, m._g\n"
+        ),
+        # a local object named like the package: its private attribute is its own
+        "a/d/o.py": (
+            "import a.b.m\nfrom a.b import m\n"
+            "def f(a):\n    return a.b.m._x\ndef g():\n    m = 1\n    return m._y\n"
         ),
     }
     for rel, text in files.items():
