@@ -229,43 +229,6 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _eval_hooks():
-    import numpy as np
-
-    from rl.commands import EvalHooks
-    from sim import make_eval_env
-    from sim.task.expert import EXPERTS
-    from evaluation.recording import EpisodeRecorder, env_labels
-    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
-
-    def random_agent(seed: int):
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 6))
-
-    return EvalHooks(
-        make_env=make_eval_env,
-        agents={
-            **{name: (lambda seed, act=act: act) for name, act in EXPERTS.items()},
-            "random": random_agent,
-        },
-        labels=env_labels,
-        recorder=EpisodeRecorder,
-        policies={**dict.fromkeys(EXPERTS, "deterministic"), "random": "stochastic"},
-        is_sequence=is_assembly_dataset,
-        run_sequence=evaluate_assembly_dataset,
-    )
-
-
-def cmd_eval(args: argparse.Namespace) -> int:
-    from rl.commands import eval_main
-
-    if (args.agent is None) == (args.checkpoint is None):
-        agents = "|".join((*EXPERT_NAMES, "random"))
-        return _err(f"give one of --agent {agents} and --checkpoint RUN_DIR")
-    args.run, args.episodes = args.checkpoint, args.attempts
-    return eval_main(args, _eval_hooks())
-
-
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "sim":
         from assetgen.dataset.spec import DatasetError
@@ -454,59 +417,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
     b.set_defaults(func=cmd_bench)
 
+    from evaluation.command import add_arguments as add_eval_arguments
+    from evaluation.command import main as eval_command
+
     e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
-    e.add_argument(
-        "--agent",
-        choices=[*EXPERT_NAMES, "random"],
-        help="a built-in agent",
-    )
-    e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")
-    e.add_argument(
-        "--stochastic",
-        action="store_true",
-        help="with --checkpoint: sample the policy's actions (default: its mean action)",
-    )
-    e.add_argument("--dataset", default="test", help="spec name or dataset folder")
-    e.add_argument("--attempts", type=int, default=10, help="episodes per module")
-    e.add_argument(
-        "--modules", type=int, default=None,
-        help="the dataset's first N modules (or assemblies) only (default: all, the protocol)",
-    )  # fmt: skip
-    add_sim_argument(
-        e,
-        "physics engine: MuJoCo (the simulator), PhysX (the referee: SAPIEN on the CPU, "
-        "read from the USD files; the physx extra) or MuJoCo Warp (the simulator's physics on "
-        "a GPU; the warp extra)",
-    )
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument(
-        "--envs", type=int, default=None, help="parallel envs at most (default: one per module)"
-    )
-    e.add_argument(
-        "--noise-scale",
-        type=float,
-        default=1.0,
-        help="multiply the observation and action noise (robustness: 2 = twice the paper's)",
-    )
-    e.add_argument("--record", type=Path, help="folder for recorded episodes (.npz)")
-    e.add_argument(
-        "--record-limit", type=int, default=None,
-        help="episodes to record (assembly datasets: the first attempt of this many assemblies)",
-    )  # fmt: skip
-    e.add_argument(
-        "--threads", type=int, default=None,
-        help="torch threads for a checkpoint's policy (default: half the cores, as in train; "
-        "more threads than free cores slow a run several times)",
-    )  # fmt: skip
-    e.add_argument("--out", type=Path, help="write the results JSON here")
-    e.add_argument("--json", action="store_true", help="print the results as one JSON line")
-    e.add_argument(
-        "--keep-dataset-physics",
-        action="store_true",
-        help="simulate a dataset written for other physics with the physics its files carry "
-        "(default: refuse it and say how to regenerate it)",
-    )
-    e.set_defaults(func=cmd_eval)
+    add_eval_arguments(e, EXPERT_NAMES)
+    e.set_defaults(func=eval_command)
 
     from preview.command import add_arguments, view_main
 
@@ -518,7 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     # add over a second to every command
     from rl.commands import add_export_parser, add_report_parser, add_train_parser
 
-    add_train_parser(sub, _train_env, TEACHERS, _probe_env)
+    add_train_parser(sub, _train_env, TEACHERS, _probe)
     add_report_parser(sub)
     add_export_parser(sub)
     return p
@@ -536,10 +452,11 @@ def _train_env(*args, **kwargs):
     return make_train_env(*args, **kwargs)
 
 
-def _probe_env(dataset: str, modules: int, keep_physics: bool = False, **engine):
-    from sim import make_eval_env
+def _probe(*args, **kwargs):
+    # evaluation (with torch and the simulator) is imported when `train --probe-steps` runs
+    from evaluation.probe import dataset_probe
 
-    return make_eval_env(dataset, None, 0, modules=modules, keep_physics=keep_physics, **engine)
+    return dataset_probe(*args, **kwargs)
 
 
 def _expert(name: str):

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import torch
 
-from rl.dreamer.config import DreamerConfig
 from evaluation.protocol import evaluate
+from rl.dreamer.config import DreamerConfig
 from rl.gym_vec import GymVecEnv
 from rl.ppo import PPOConfig
 from rl.presets import Setup

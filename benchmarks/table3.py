@@ -304,8 +304,8 @@ def next_lanes(runs: Path, results: Path, run_lane, limit: int | None = None) ->
 def progress(row: str, seed: int, runs: Path) -> str:
     """How far the lane's begun stages are: its training's env steps and minutes (from the
     checkpoint's header) and its evaluation's episodes (from the snapshot's); '' for none."""
-    from rl.checkpoint import CheckpointError, read_counters
     from evaluation.snapshots import snapshot_progress
+    from rl.checkpoint import CheckpointError, read_counters
 
     run = run_dir(runs, row, seed)
     parts = []

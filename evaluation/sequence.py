@@ -30,11 +30,11 @@ from typing import Any
 import numpy as np
 
 from assetgen.core.recorded_path import recorded_path
-from sim.task import rules as T
 from sim.assets.assembly import AssemblyStages
 from sim.assets.loading import AssetError
-from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
+from sim.task import rules as T
+from sim.task.config import TaskConfig
 
 SUCCESS, FAILURE, TRUNCATED = 0, 1, 2
 """Outcome codes of an episode."""

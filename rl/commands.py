@@ -1,13 +1,16 @@
 """The learning commands of `assetgen`; cli.py registers them and calls them:
 
-    add_train_parser(subparsers, make_env, teachers)   assetgen train ...
-    eval_main(args, EvalHooks(...))          assetgen eval --agent NAME | --checkpoint RUN ...
-    add_report_parser(subparsers)            assetgen report ...
+    add_train_parser(subparsers, make_env, teachers, make_probe)    assetgen train ...
+    add_report_parser(subparsers)                                   assetgen report ...
+    add_export_parser(subparsers)                                   assetgen export ...
+
+(`assetgen eval` is evaluation/command.py's; it uses print_error and torch_threads from here.)
 
 `make_env(dataset: str, num_envs: int, seed: int, **task) -> VecEnv` (rl/vec_env.py; train passes
 `curriculum_steps=N`, the length of the env's spawn curriculum, as a keyword) is supplied by
-the caller, so rl/ never imports the simulator (nor its scripted expert: `teachers` maps
-`--demos` names to policies); for a dataset it cannot use it raises
+the caller, so rl/ never imports the simulator nor evaluation/: `teachers` maps `--demos`
+names to policies (the scripted experts) and `make_probe` builds the probe of --probe-steps
+(evaluation/probe.py's dataset_probe). For a dataset it cannot use, make_env raises
 ValueError with a message for the user. Each parser sets `func(args) -> int` (an exit code),
 as the other subcommands do.
 
@@ -25,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +40,12 @@ MakeEnv = Callable[..., VecEnv]
 (one written for other physics among them, unless keep_physics=True)."""
 Teacher = Callable[[np.ndarray], np.ndarray]
 """A policy of unstacked observations (N, obs_dim) -> actions (N, act_dim) in [-1, 1]."""
+Probe = Callable[[Any], dict[str, float]]
+"""agent -> the probe_* columns of that iteration's metrics row (rl/runner.py's `probe`)."""
+MakeProbe = Callable[..., Probe]
+"""make_probe(dataset, modules, attempts, stack, keep_physics=False, **engine) -> the probe
+of `train --probe-steps`: the frozen policy on the dataset's first `modules` modules,
+`attempts` episodes each, its observations stacked `stack` deep; ValueError for bad input."""
 
 
 def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
@@ -57,30 +65,27 @@ FLAGS = {
 }
 """Library parameter names as the command line spells them, for error messages."""
 
-SNAPSHOT_EVERY_S = 300.0
-"""Seconds between the snapshots of a checkpoint's evaluation with --out
-(OUT.partial.safetensors): the same command, rerun after a cut, goes on from the last one
-(evaluation/snapshots.py)."""
 
-
-def _flags(message: str) -> str:
+def flag_words(message: str) -> str:
     """A library error in the command line's words: `noise_scale = 3` -> `--noise-scale 3`."""
     for name, flag in FLAGS.items():
         message = message.replace(f"{name} = ", f"{flag} ").replace(name, flag)
     return message
 
 
-def _error(message: str) -> int:
+def print_error(message: str) -> int:
     """Print a one-line error for the user on stderr; exit code 2."""
     from rich.console import Console
     from rich.markup import escape
 
     err = Console(stderr=True)
-    err.print(f"[bold red]error:[/] {escape(_flags(message))}", highlight=False, soft_wrap=True)
+    err.print(
+        f"[bold red]error:[/] {escape(flag_words(message))}", highlight=False, soft_wrap=True
+    )
     return 2
 
 
-def _torch_threads(threads: int | None) -> int:
+def torch_threads(threads: int | None) -> int:
     """--threads, or by default half the cores (at least 1): the simulator's C threads need
     the rest, and oversubscribed torch threads spin."""
     import os
@@ -92,11 +97,11 @@ def add_train_parser(
     subparsers: argparse._SubParsersAction,
     make_env: MakeEnv,
     teachers: dict[str, Callable[[], Teacher]] | None = None,
-    make_probe_env: Callable[[str, int], Any] | None = None,
+    make_probe: MakeProbe | None = None,
 ) -> argparse.ArgumentParser:
     """Register `train` on an argparse subparsers object; `teachers` maps the names that
-    --demos accepts to functions that build the policy; `make_probe_env(dataset, k)` makes
-    the evaluation env of the dataset's first k modules for --probe-steps."""
+    --demos accepts to functions that build the policy; `make_probe` builds the probe of
+    --probe-steps (MakeProbe)."""
     from rl.names import ALGO_NAMES, PRESET_NAMES
 
     p = subparsers.add_parser(
@@ -210,7 +215,7 @@ def add_train_parser(
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON line")
-    p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}, make_probe_env))
+    p.set_defaults(func=lambda args: train_main(args, make_env, teachers or {}, make_probe))
     return p
 
 
@@ -241,7 +246,7 @@ def train_main(
     args: argparse.Namespace,
     make_env: MakeEnv,
     teachers: dict[str, Callable[[], Teacher]],
-    make_probe_env: Callable[[str, int], Any] | None = None,
+    make_probe: MakeProbe | None = None,
 ) -> int:
     """Run `train` from parsed arguments; prints a summary. Exit code 0, 1 on NaN."""
     import torch
@@ -250,7 +255,7 @@ def train_main(
     from rl.presets import get_setup
     from rl.runner import console, train
 
-    torch.set_num_threads(_torch_threads(args.threads))
+    torch.set_num_threads(torch_threads(args.threads))
     try:
         setup = get_setup(args.preset, args.algo)
         if args.steps is not None and args.steps < 1:
@@ -298,17 +303,14 @@ def train_main(
         on_engine = _engine_kwargs(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
-            from rl.probe import make_probe
-
             if probe_steps < 1:
                 raise ValueError(f"--probe-steps {probe_steps}: give a positive number of steps")
-            if make_probe_env is None:
+            if make_probe is None:
                 raise ValueError("--probe-steps: this env offers no evaluation env to probe")
             if args.probe_modules < 1:
                 raise ValueError(f"--probe-modules {args.probe_modules}: give at least 1")
-            probe_env = make_probe_env(args.dataset, args.probe_modules, keep_physics=keep,
-                                       **on_engine)  # fmt: skip
-            probe = make_probe(probe_env, args.probe_attempts, args.stack)
+            probe = make_probe(args.dataset, args.probe_modules, args.probe_attempts, args.stack,
+                               keep_physics=keep, **on_engine)  # fmt: skip
         env = make_env(
             args.dataset,
             args.envs or setup.num_envs,
@@ -339,7 +341,7 @@ def train_main(
             checkpoint_minutes=args.checkpoint_minutes,
         )
     except (ValueError, CheckpointError) as e:
-        return _error(str(e))
+        return print_error(str(e))
     if args.json:
         print(json.dumps(result))
     else:
@@ -355,265 +357,6 @@ def train_main(
             f"iterations, {result['seconds']:.0f} s; {last}; checkpoint {result['checkpoint']}"
         )
     return {"done": 0, "nan": 1, "interrupted": 130}[result["status"]]
-
-
-@dataclass(frozen=True)
-class EvalHooks:
-    """What `assetgen eval` needs from the simulator, supplied by cli.py (rl/ never imports
-    it)."""
-
-    make_env: MakeEnv
-    """make_env(dataset, num_envs, seed, noise_scale=x) -> the evaluation VecEnv, with a
-    `protocol` dict (dataset folder and hash, control_dt, noise scale) when it has one."""
-    agents: dict[str, Callable[[int], Teacher]]
-    """Built-in agents: name -> (seed -> policy)."""
-    labels: Callable[[Any], list[str]] | None = None
-    """env -> what each env plays (its module id), for per-module results."""
-    recorder: Callable[[Path, int | None], Any] | None = None
-    """(folder, limit) -> a recorder of episodes (evaluation/protocol.py's Recorder)."""
-    policies: dict[str, str] = field(default_factory=dict)
-    """Built-in agent -> "deterministic" or "stochastic" (what its actions are)."""
-    is_sequence: Callable[[str], bool] | None = None
-    """dataset -> whether it holds assemblies, played stage by stage by `run_sequence`."""
-    run_sequence: Callable[..., dict[str, Any]] | None = None
-    """run_sequence(dataset, policy, attempts, seed=, reset=, wrap=, noise_scale=, record=,
-    record_limit=, keep_physics=) -> results per stage and for the whole sequence
-    (evaluation/sequence.py)."""
-
-
-def eval_main(args: argparse.Namespace, hooks: EvalHooks) -> int:
-    """`assetgen eval`: the paper's protocol for a built-in agent (args.agent) or a trained
-    checkpoint (args.run), through the one loop of evaluation/protocol.py. Prints a short table or a
-    JSON line; args.out receives the JSON."""
-    import numpy as np
-
-    from assetgen.core.recorded_path import recorded_path
-    from evaluation.protocol import evaluate
-
-    run = getattr(args, "run", None)
-    stochastic = bool(getattr(args, "stochastic", False))
-    noise_scale = getattr(args, "noise_scale", None)
-    noise_scale = 1.0 if noise_scale is None else float(noise_scale)  # 0 is a valid scale
-    record = getattr(args, "record", None)
-    keep = bool(getattr(args, "keep_dataset_physics", False))
-    engine = getattr(args, "sim", None) or "mujoco"
-    # a subset reaches the factories only when asked for: the protocol plays every module
-    limit = getattr(args, "modules", None)
-    subset: dict[str, Any] = {} if limit is None else {"modules": limit}
-    out = getattr(args, "out", None)  # absent when a caller builds args without --out
-    snapshots = None
-    try:
-        if args.episodes < 1:
-            raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
-        if limit is not None and limit < 1:
-            raise ValueError(f"--modules {limit}: give at least 1 module, or leave it out")
-        on_engine = _engine_kwargs(args)
-        sequence = hooks.is_sequence is not None and hooks.is_sequence(args.dataset)
-        if sequence and on_engine:
-            raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")
-        reset = None
-        policy_state = None
-        wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
-        if run is not None:
-            import torch
-
-            from rl.agents import acting_state_hooks, reset_hook
-            from rl.checkpoint import CheckpointError, read_counters
-            from rl.report_load import variant_name
-            from rl.run_state import load_agent
-            from rl.stack import StackObs
-
-            threads = getattr(args, "threads", None)
-            if threads is not None and threads < 1:
-                raise ValueError(f"--threads {threads}: give at least 1")
-            torch.set_num_threads(_torch_threads(threads))
-            # the recurrent agents sample their latents: seeded, an evaluation repeats exactly
-            torch.manual_seed(args.seed)
-            try:
-                agent, meta = load_agent(run, getattr(args, "device", None))
-            except CheckpointError as e:
-                raise ValueError(str(e)) from e
-
-            def wrap(base: Any) -> Any:
-                """Stack as in training; refuse a policy of another observation size."""
-                env = StackObs(base, meta["stack"]) if meta["stack"] > 1 else base
-                if env.obs_dim != meta["obs_dim"]:
-                    raise ValueError(
-                        f"{run}: the checkpoint's policy takes observations of "
-                        f"{meta['obs_dim']} values ({meta['stack']} stacked), but this env "
-                        f"gives {env.obs_dim} ({base.obs_dim} per step, stacked "
-                        f"{meta['stack']}): evaluate it on the task it was trained on"
-                    )
-                return env
-
-            if not sequence:
-                base = hooks.make_env(
-                    args.dataset, args.envs, args.seed, noise_scale=noise_scale,
-                    keep_physics=keep, **on_engine, **subset,
-                )  # fmt: skip
-                env = wrap(base)
-            policy = lambda o: agent.policy(o, deterministic=not stochastic)  # noqa: E731
-            reset = reset_hook(agent)
-            policy_state = acting_state_hooks(agent)
-            head: dict[str, Any] = {
-                "algo": meta["algo"],
-                "stack": meta["stack"],
-                "demos": meta.get("demos"),
-                "overrides": meta.get("overrides", {}),
-                "run": recorded_path(run),
-                # which training state was evaluated: a resumed run's older evaluation is stale
-                "trained_env_steps": read_counters(run).get("env_steps"),
-                "policy": "stochastic" if stochastic else "deterministic",
-            }
-            name = f"{variant_name(meta['algo'], meta['stack'], meta.get('demos'))} ({run})"
-        else:
-            if args.agent not in hooks.agents:
-                raise ValueError(
-                    f"--agent {args.agent!r}: built-in agents are {sorted(hooks.agents)}; "
-                    "or give --checkpoint RUN_DIR"
-                )
-            if stochastic:
-                raise ValueError("--stochastic applies to --checkpoint policies only")
-            if not sequence:
-                env = base = hooks.make_env(
-                    args.dataset, args.envs, args.seed, noise_scale=noise_scale,
-                    **on_engine, **subset,
-                )  # fmt: skip
-            policy = hooks.agents[args.agent](args.seed)
-            head = {"agent": args.agent, "policy": hooks.policies.get(args.agent, "deterministic")}
-            name = args.agent
-        if sequence:
-            assert hooks.run_sequence is not None
-            res = hooks.run_sequence(
-                args.dataset, policy, args.episodes, seed=args.seed, reset=reset, wrap=wrap,
-                noise_scale=noise_scale, record=None if record is None else Path(record),
-                record_limit=getattr(args, "record_limit", None), keep_physics=keep,
-                **subset,
-            )  # fmt: skip
-            return _sequence_out(args, {**head, "dataset": recorded_path(args.dataset),
-                                        "attempts": args.episodes, "seed": args.seed, **res},
-                                 name)  # fmt: skip
-        recorder = None
-        if record is not None:
-            if hooks.recorder is None:
-                raise ValueError("--record: this env cannot record episodes")
-            recorder = hooks.recorder(Path(record), getattr(args, "record_limit", None))
-        saveable = reset is None or policy_state is not None
-        if out is not None and run is not None and saveable and recorder is None:
-            if engine == "mujoco" and hasattr(env, "get_state"):
-                # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
-                import torch
-
-                from evaluation.snapshots import EvalSnapshots, snapshot_path
-
-                snapshots = EvalSnapshots(
-                    snapshot_path(Path(out)),
-                    {
-                        **head,
-                        **getattr(base, "protocol", {}),
-                        "dataset": recorded_path(args.dataset),
-                        "attempts": args.episodes,
-                        "seed": args.seed,
-                        "envs": args.envs,
-                        "modules": limit,
-                        "threads": torch.get_num_threads(),
-                    },
-                    every_s=SNAPSHOT_EVERY_S,
-                )
-        res = evaluate(
-            policy,
-            env,
-            args.episodes,
-            seed=args.seed,
-            reset=reset,
-            labels=hooks.labels(base) if hooks.labels is not None else None,
-            recorder=recorder,
-            live=getattr(base, "set_live", None),
-            snapshots=snapshots,
-            policy_state=policy_state,
-        )
-    except ValueError as e:
-        return _error(str(e))
-    res = {
-        **head,
-        "dataset": recorded_path(args.dataset),
-        **getattr(base, "protocol", {}),
-        "attempts": args.episodes,
-        "seed": args.seed,
-        **res,
-    }
-    if out is not None:
-        from assetgen.core.atomic_file import strict_json, write_json
-
-        write_json(out, strict_json(res))
-        if snapshots is not None:
-            snapshots.clear()
-    if args.json:
-        print(json.dumps(res))
-        return 0
-    tts = np.asarray(res["time_to_success_s"])
-    q = np.percentile(tts, [10, 50, 90]) if len(tts) else [float("nan")] * 3
-    where = f"{res.get('dataset_folder', res['dataset'])} ({res.get('dataset_hash', '?')[:16]})"
-    rows = [
-        ("agent", f"{name}, {res['policy']} actions"),
-        ("dataset", where),
-        ("episodes", res["episodes"]),
-        ("success rate", f"{100 * res['success_rate']:.2f} %"),
-        ("time to success p10/p50/p90", f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"),
-        ("failure rate", f"{100 * res['failure_rate']:.2f} %"),
-        ("truncated", f"{100 * res['truncation_rate']:.2f} %"),
-        ("unstable episodes", res["unstable"]),
-        ("mean return", f"{res['mean_return']:.3f}"),
-        ("wall time", f"{res['seconds']:.1f} s"),
-    ]
-    width = max(len(k) for k, _ in rows)
-    for k, v in rows:
-        print(f"{k:<{width}}  {v}")
-    return 0
-
-
-def _sequence_out(args: argparse.Namespace, res: dict[str, Any], name: str) -> int:
-    """Write and print an assembly dataset's evaluation: each stage, then the sequence."""
-    import numpy as np
-
-    out = getattr(args, "out", None)
-    if out is not None:
-        from assetgen.core.atomic_file import strict_json, write_json
-
-        write_json(out, strict_json(res))
-    if args.json:
-        print(json.dumps(res))
-        return 0
-
-    def times(tts: list[float]) -> str:
-        if not tts:
-            return "-"
-        q = np.percentile(tts, [10, 50, 90])
-        return f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"
-
-    rows = [
-        ("agent", f"{name}, {res['policy']} actions"),
-        ("dataset", f"{res['dataset_folder']} ({res['dataset_hash'][:16]}), {res['family']}"),
-        ("attempts", f"{res['assemblies']} assemblies x {res['attempts']}"),
-    ]
-    for k, st in enumerate(res["stages"]):
-        gap = ", ".join(f"{1e3 * c:g}" for c in st["clearance_m"])
-        rows.append((
-            f"stage {k + 1}: {st['part']} ({gap} mm)",
-            f"{100 * st['success_rate']:.2f} % of {st['episodes']} episodes "
-            f"(failed {100 * st['failure_rate']:.2f} %, truncated "
-            f"{100 * st['truncation_rate']:.2f} %), p10/p50/p90 {times(st['time_to_success_s'])}",
-        ))  # fmt: skip
-    seq = res["sequence"]
-    rows += [
-        ("whole sequence", f"{100 * seq['success_rate']:.2f} % of {seq['episodes']} attempts, "
-                           f"p10/p50/p90 {times(seq['time_to_success_s'])}"),
-        ("wall time", f"{res['seconds']:.1f} s"),
-    ]  # fmt: skip
-    width = max(len(k) for k, _ in rows)
-    for k, v in rows:
-        print(f"{k:<{width}}  {v}")
-    return 0
 
 
 def add_export_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -639,7 +382,7 @@ def export_main(args: argparse.Namespace) -> int:
     try:
         res = export_policy(args.run, args.out)
     except CheckpointError as e:
-        return _error(str(e))
+        return print_error(str(e))
     for name, size in res["files"].items():
         print(f"{args.out / name}  {size / 1e6:.2f} MB")
     return 0

@@ -5,8 +5,8 @@ Inputs (nothing here trains or simulates; torch is not needed):
     RUN_DIR/config.json       written by rl/runner.py train(): algo, stack, seed, config, ...
     RUN_DIR/metrics.csv       one row per iteration; columns env_steps, success_rate (the
                               fraction of the last finished training episodes that succeeded)
-    RUN_DIR/eval_*.json       `assetgen eval --checkpoint RUN_DIR --out ...` (rl/commands.py)
-    baseline *.json           `assetgen eval --agent scripted|random --out ...` (rl/commands.py)
+    RUN_DIR/eval_*.json       `assetgen eval --checkpoint RUN_DIR --out ...` (evaluation/)
+    baseline *.json           `assetgen eval --agent scripted|random --out ...` (evaluation/)
 
 An evaluation file needs: success_rate (fraction), episodes (count), time_to_success_s (list
 of seconds, one per success), dataset (the split's name or folder: its last path component,

@@ -137,7 +137,7 @@ def train(
     `demos` in the run's metadata. overrides: config fields replaced in the preset's config
     (ablations: {"bc_weight": 0.0}). probe: agent -> {"probe_success_rate", ...}, run
     every `probe_steps` env steps (rounded to iterations) and logged with that row: the
-    frozen deterministic policy on fixed episodes (rl/probe.py), because the training
+    frozen deterministic policy on fixed episodes (evaluation/probe.py), because the training
     columns describe a policy that changes at every gradient step. checkpoint_minutes: on an
     env with get_state/set_state, a checkpoint at the end of the first iteration this long
     after the last one as well (None: every checkpoint_steps only; an env without

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 import torch
 
+from evaluation.command import eval_main
+from evaluation.protocol import evaluate
 from rl import checkpoint as ckpt
-from rl.commands import EvalHooks, eval_main
 from rl.dreamer.actor_critic import imagine
 from rl.dreamer.agent import Dreamer
 from rl.dreamer.config import DreamerConfig
@@ -27,7 +28,6 @@ from rl.dreamer.distributions import (
 )
 from rl.dreamer.replay import ReplayMemoryError, SequenceReplay
 from rl.dreamer.world_model import State
-from evaluation.protocol import evaluate
 from rl.presets import Setup, get_setup
 from rl.agents import reset_hook
 from rl.run_state import load_agent
@@ -417,7 +417,7 @@ def test_evaluation_carries_and_resets_the_recurrent_state(tmp_path, monkeypatch
     monkeypatch.setattr(Dreamer, "reset", lambda self, m: (calls.append(len(m)), real(self, m)))
     args = argparse.Namespace(run=tmp_path, dataset="toy", episodes=1, envs=6, seed=0,
                               device="cpu", stochastic=False, json=True, out=None)  # fmt: skip
-    assert eval_main(args, EvalHooks(lambda dataset, n, seed, **kw: ToyEnv(n), {})) == 0
+    assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n)) == 0
     assert calls and set(calls) == {6}
     assert get_setup("debug", "dreamer").config.validate()
 

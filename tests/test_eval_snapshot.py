@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import torch
 
-from rl.dreamer.agent import Dreamer
-from evaluation.snapshots import EvalSnapshots, snapshot_progress
 from evaluation.protocol import evaluate
+from evaluation.snapshots import EvalSnapshots, snapshot_progress
 from rl.agents import acting_state_hooks, reset_hook
+from rl.dreamer.agent import Dreamer
 from sim.task.expert import direct_expert_action
 from tests.test_dreamer import TINY
 from tests.test_sim_common import make_env, quiet

@@ -140,9 +140,9 @@ def test_dataset_records_its_physics_and_the_simulator_refuses_others(tmp_path) 
     msg = str(e.value)
     assert "version 1" in msg and f"version {PHYSICS_VERSION}" in msg and "5 ms" in msg
     assert "--overwrite" in msg and "keep_physics=True" in msg
-    from rl.commands import _flags  # the command line names its flag instead
+    from rl.commands import flag_words  # the command line names its flag instead
 
-    assert "--keep-dataset-physics" in _flags(msg) and "keep_physics" not in _flags(msg)
+    assert "--keep-dataset-physics" in flag_words(msg) and "keep_physics" not in flag_words(msg)
     kept = check_physics(root, keep=True)
     assert kept.timestep == 0.005 and kept.substeps == 4
     env = make_eval_env(str(root), None, 0, modules=1, keep_physics=True)

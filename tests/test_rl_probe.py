@@ -1,4 +1,4 @@
-"""The frozen-policy probe of training runs (rl/probe.py): when it runs, what it logs, that
+"""The frozen-policy probe of training runs (evaluation/probe.py): when it runs, what it logs, that
 it measures the frozen policy, that a recurrent agent's acting state survives it, and that
 runs with a probe still resume exactly."""
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
+from evaluation.probe import make_probe
 from rl.checkpoint import CheckpointError
 from rl.dreamer.agent import Dreamer
-from rl.probe import make_probe
 from rl.run_state import load_agent
 from tests.test_dreamer import SETUP as DREAMER_SETUP
 from tests.test_dreamer import TINY

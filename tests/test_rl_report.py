@@ -215,8 +215,7 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     scripted baseline through the simulator's writer, all into one report."""
     import torch
 
-    from cli import _eval_hooks
-    from rl.commands import EvalHooks, eval_main
+    from evaluation.command import eval_main
     from rl.ppo import PPOConfig
     from rl.presets import Setup
     from rl.runner import train
@@ -233,7 +232,7 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
         args = argparse.Namespace(run=out, dataset="test", episodes=2, envs=None, seed=0,
                                   device="cpu", stochastic=False, json=False,
                                   out=out / "eval_test.json")  # fmt: skip
-        assert eval_main(args, EvalHooks(lambda dataset, n, seed, **kw: ToyEnv(n or 4), {})) == 0
+        assert eval_main(args, lambda dataset, n, seed, **kw: ToyEnv(n or 4)) == 0
         runs.append(out)
     stored = json.loads((runs[0] / "eval_test.json").read_text())
     assert {"algo", "stack", "dataset", "run", "episodes", "success_rate",
@@ -245,7 +244,7 @@ def test_real_writers_end_to_end(tmp_path: Path) -> None:
     sim_args = argparse.Namespace(agent="scripted", run=None, dataset=str(test_split),
                                   episodes=1, seed=0, envs=4, record=None, record_limit=None,
                                   out=tmp_path / "results/scripted.json", json=True)  # fmt: skip
-    assert eval_main(sim_args, _eval_hooks()) == 0
+    assert eval_main(sim_args) == 0
 
     (tmp_path / "results/bench_sim.json").write_text('{"env_steps_per_s": 1.0}')
     doc = write_report(runs, [tmp_path / "results"], tmp_path / "report")

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 import torch
 
-from rl import checkpoint as ckpt
-from rl.commands import EvalHooks, add_train_parser, eval_main
+from evaluation.command import eval_main
 from evaluation.protocol import evaluate
+from rl import checkpoint as ckpt
+from rl.commands import add_train_parser
 from rl.ppo import PPOConfig
 from rl.presets import PRESETS, Setup, get_setup
 from rl.run_state import CHECKPOINT, load_agent
@@ -252,7 +253,7 @@ def test_commands(tmp_path, capsys) -> None:
     assert meta["env_options"] == {"curriculum_steps": curriculum}
     args = argparse.Namespace(run=out, dataset="toy", episodes=1, envs=None, seed=0, device=None,
                               stochastic=False, json=True, out=None)  # fmt: skip
-    assert eval_main(args, EvalHooks(make_env, {})) == 0
+    assert eval_main(args, make_env) == 0
     ev = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert ev["algo"] == "ppo" and ev["stack"] == 2 and ev["episodes"] == 2
     assert ev["policy"] == "deterministic" and ev["attempts"] == 1

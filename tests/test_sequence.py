@@ -12,16 +12,16 @@ import pytest
 
 from assetgen.core.mujoco_config import PHYSICS_VERSION
 from assetgen.core.rotations import matrix_to_quat
-from rl.commands import EvalHooks, eval_main
-from sim.assets.assembly import AssemblyStages
-from sim.env import eval_config
-from sim.task.expert import EXPERTS
+from evaluation.command import eval_main
 from evaluation.sequence import (
     evaluate_assembly_dataset,
     evaluate_sequence,
     is_assembly_dataset,
     pressed_home,
 )
+from sim.assets.assembly import AssemblyStages
+from sim.env import eval_config
+from sim.task.expert import EXPERTS
 
 
 @pytest.fixture(scope="module")
@@ -120,8 +120,9 @@ def test_assetgen_eval_on_an_assembly_dataset(assemblies, tmp_path, capsys) -> N
 
 
 def test_a_policy_of_another_observation_size_is_refused_before_the_run(
-    assemblies, tmp_path, capsys
+    assemblies, tmp_path, capsys, monkeypatch
 ) -> None:
+    import evaluation.sequence
     from rl.runner import train
     from tests.toy_env import ToyEnv
 
@@ -131,15 +132,12 @@ def test_a_policy_of_another_observation_size_is_refused_before_the_run(
 
     def run_sequence(*a, wrap, **kw):
         calls.append(1)
-        from evaluation.sequence import evaluate_assembly_dataset
-
         return evaluate_assembly_dataset(*a, wrap=wrap, **kw)
 
-    hooks = EvalHooks(lambda *a, **k: None, {}, is_sequence=is_assembly_dataset,
-                      run_sequence=run_sequence)  # fmt: skip
+    monkeypatch.setattr(evaluation.sequence, "evaluate_assembly_dataset", run_sequence)
     args = argparse.Namespace(run=tmp_path / "toy", dataset=str(assemblies), episodes=1,
                               envs=None, seed=0, device="cpu", stochastic=False, json=True,
                               out=None)  # fmt: skip
-    assert eval_main(args, hooks) != 0
+    assert eval_main(args) != 0
     err = capsys.readouterr()
     assert "takes observations of 4 values" in err.out + err.err and calls

@@ -95,7 +95,8 @@ class Dreamer:
     def acting_state(self) -> dict[str, np.ndarray]:
         """A copy of the per-env acting state as arrays: the recurrent state (deter, stoch),
         the previous action and the first-step flags; for `load_acting_state` after another
-        use of the policy (rl/probe.py) or in a resumed evaluation (evaluation/snapshots.py)."""
+        use of the policy (evaluation/probe.py) or in a resumed evaluation
+        (evaluation/snapshots.py)."""
         st = self.state
         return {
             "deter": st.deter.cpu().numpy().copy(),

@@ -11,6 +11,9 @@ loop, and logs `probe_success_rate`, `probe_time_to_success_median` and
 
 A recurrent agent's acting state (Dreamer's h, z, previous action) is saved before the
 probe and put back after it, so training carries on where it was.
+
+`dataset_probe` is the probe factory `assetgen train` receives from cli.py (rl/commands.py's
+MakeProbe): the probe on the simulator's evaluation env of the dataset's first modules.
 """
 
 from __future__ import annotations
@@ -51,3 +54,20 @@ def make_probe(env: Any, attempts: int, stack: int = 1, seed: int = 0) -> Callab
         }
 
     return probe
+
+
+def dataset_probe(
+    dataset: str,
+    modules: int,
+    attempts: int,
+    stack: int = 1,
+    keep_physics: bool = False,
+    **engine: Any,
+) -> Callable[[Any], dict]:
+    """The probe of `train --probe-steps`: the evaluation env (sim.make_eval_env, no env
+    count limit, seed 0) of the dataset's first `modules` modules, `attempts` episodes per
+    module; `keep_physics` and `engine` as for the training env."""
+    from sim import make_eval_env
+
+    env = make_eval_env(dataset, None, 0, modules=modules, keep_physics=keep_physics, **engine)
+    return make_probe(env, attempts, stack)
