@@ -18,7 +18,7 @@ import numpy as np
 
 from assetgen.core.stl import read_stl_mm
 from assetgen.dataset.spec import resolve
-from sim.assets.loading import _frame
+from sim.assets.loading import frame_matrix
 
 COLOURS = {"base": (0.72, 0.74, 0.78), "profile": (0.85, 0.55, 0.25), "bolt": (0.35, 0.5, 0.8)}
 
@@ -61,9 +61,9 @@ def draw(module_dir: Path, out: Path, explode: float = 1.3) -> None:
     light /= np.linalg.norm(light)
     parts = {"base": np.eye(4)}
     for s in meta["steps"]:
-        pose = _frame(s["design_pose"], "design_pose", module_dir)
-        entrance = _frame(s["entrance"], "entrance", module_dir)
-        bottom = _frame(s["bottom"], "bottom", module_dir)
+        pose = frame_matrix(s["design_pose"], "design_pose", module_dir)
+        entrance = frame_matrix(s["entrance"], "entrance", module_dir)
+        bottom = frame_matrix(s["bottom"], "bottom", module_dir)
         out_dir = entrance[:3, 3] - bottom[:3, 3]
         out_dir /= np.linalg.norm(out_dir)
         lifted = pose.copy()

@@ -260,3 +260,35 @@ def test_the_package_version_is_the_generators():
     # machine keeps its CUDA build
     assert not any(r.startswith("torch==") for r in project["optional-dependencies"]["rl"])
     assert "torch==2.13.0" in (ROOT / "constraints.txt").read_text().split()
+
+
+def private_imports_across_packages(root: Path) -> list[str]:
+    """`from a.b.mod import _name` in a module of another package than a.b (tests aside):
+    a helper shared across packages is public, documented where it lives."""
+    found = []
+    for pkg in PACKAGES:
+        for path in sorted((root / pkg).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
+            here = ".".join(parts[:-1])  # the package the module is in (itself for __init__)
+            for node in ast.walk(ast.parse(path.read_text())):
+                if not (isinstance(node, ast.ImportFrom) and node.module and node.level == 0):
+                    continue
+                package = node.module.rsplit(".", 1)[0]
+                for a in node.names:
+                    private = a.name.startswith("_") and not a.name.startswith("__")
+                    if private and package != here and node.module != here:
+                        found.append(f"{path.relative_to(root)}: {node.module}.{a.name}")
+    return found
+
+
+def test_no_private_name_is_imported_across_packages():
+    assert private_imports_across_packages(ROOT) == []
+
+
+def test_private_imports_across_packages_are_found(tmp_path):
+    (tmp_path / "sim" / "assets").mkdir(parents=True)
+    (tmp_path / "sim" / "assets" / "a.py").write_text("from sim.engines.x import _y\n")
+    (tmp_path / "sim" / "assets" / "b.py").write_text("from sim.assets.a import _z\n")
+    for pkg in PACKAGES:
+        (tmp_path / pkg).mkdir(exist_ok=True)
+    assert private_imports_across_packages(tmp_path) == ["sim/assets/a.py: sim.engines.x._y"]
