@@ -305,6 +305,28 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_families(args: argparse.Namespace) -> int:
+    from rich.markup import escape
+
+    from assetgen.families.registry import describe
+
+    families = describe()
+    if args.json:
+        print(json.dumps(families))
+        return 0
+    table = Table(title="families (assetgen sample --family NAME)")
+    for column in ("family / parameter", "default", "meaning"):
+        table.add_column(column, no_wrap=column != "meaning")
+    for f in families:
+        table.add_row(f"[bold]{f['name']}[/]", "", escape(f"{f['summary']} ({f['layout']})"))
+        for q in f["parameters"]:
+            d = q["default"]
+            shown = ", ".join(f"{v:.6g}" for v in d) if isinstance(d, list) else f"{d:.6g}"
+            table.add_row(f"  {q['name']}", shown, escape(q["doc"]))
+    console.print(table)
+    return 0
+
+
 # ----------------------------------------------------------------------------- main
 
 
@@ -362,6 +384,10 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="summary of a dataset's parameter distributions")
     i.add_argument("dataset", help="spec name or dataset folder")
     i.set_defaults(func=cmd_info)
+
+    fa = sub.add_parser("families", help="the families `sample --family` takes, with parameters")
+    fa.add_argument("--json", action="store_true", help="print one JSON list instead of the table")
+    fa.set_defaults(func=cmd_families)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
     b.add_argument("what", choices=["assets", "sim", "load", "contacts"], help="what to measure")

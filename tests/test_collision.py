@@ -63,13 +63,13 @@ def test_pieces_are_checked_as_the_files_store_them(tmp_path):
 
 
 def test_piece_that_loses_clearance_is_refused():
-    from assetgen.checks.module_checks import _distance, _fcl_object
+    from assetgen.checks.module_checks import fcl_distance, fcl_object
 
     g = build_module(CORNERS["32-gon"])
     pieces = exact_pieces(g)
     design = g.design_pose.matrix()
-    peg = _fcl_object(g.peg, design)
-    nearest = min(range(len(pieces)), key=lambda i: _distance(peg, _fcl_object(pieces[i])))
+    peg = fcl_object(g.peg, design)
+    nearest = min(range(len(pieces)), key=lambda i: fcl_distance(peg, fcl_object(pieces[i])))
     # Push the nearest piece 0.1 mm toward the peg's centre: it now eats into the clearance.
     centre = design[:3, 3] + 0.5 * g.params.peg_height * design[:3, 2]
     m = pieces[nearest]

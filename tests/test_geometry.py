@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 
 from assetgen.checks.module_checks import (
     CheckError,
-    _distance,
-    _fcl_convex,
-    _fcl_object,
-    _swept_hull,
+    fcl_convex,
+    fcl_distance,
+    fcl_object,
     lifted,
+    swept_hull,
     verify,
 )
 from assetgen.core.mesh import Mesh
@@ -156,14 +156,14 @@ def test_convex_distance_agrees_with_triangle_distance(name):
     """The checks measure the convex peg and its sweeps with GJK (fcl.Convex); the same
     meshes as triangle BVHs give the same distances within 10 nm (the tolerance is 1 um)."""
     g = build_module(CORNERS[name])
-    module = _fcl_object(g.module)
+    module = fcl_object(g.module)
     design = g.design_pose.matrix()
     for lift in (0.0, 2e-4, 0.01, -5e-4):  # seated, lifted, above the plate, halfway to the floor
         pose = lifted(design, lift)
-        swept = _swept_hull(g.peg, pose, design)
+        swept = swept_hull(g.peg, pose, design)
         for body, m in ((g.peg, pose), (swept, None)):
-            gjk = _distance(_fcl_convex(body, m), module)
-            triangles = _distance(_fcl_object(body, m), module)
+            gjk = fcl_distance(fcl_convex(body, m), module)
+            triangles = fcl_distance(fcl_object(body, m), module)
             assert abs(gjk - triangles) <= 1e-8, (lift, gjk, triangles)
 
 

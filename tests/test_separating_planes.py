@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import assetgen.collision.pieces as collision
-from assetgen.checks.module_checks import _distance, _fcl_object, _swept_hull, lifted
+from assetgen.checks.module_checks import fcl_distance, fcl_object, lifted, swept_hull
 from assetgen.collision.exact import exact_pieces
 from assetgen.collision.separating_planes import (
     edge_cross_directions,
@@ -35,7 +35,7 @@ def test_bound_never_exceeds_the_distance_and_is_exact_along_the_separating_axis
         dirs = rng.normal(size=(20, 3))
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
         bound = separation_bounds([a], [b], dirs)[0, 0]
-        exact = _distance(_fcl_object(_hull(a)), _fcl_object(_hull(b)))
+        exact = fcl_distance(fcl_object(_hull(a)), fcl_object(_hull(b)))
         assert bound <= exact + 1e-12
     # Two boxes apart along x by 0.25: the x axis gives the distance exactly.
     box = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
@@ -51,7 +51,7 @@ def test_edge_crosses_separate_what_no_face_normal_separates():
     h = 0.2
     a = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, -1], [0, 1, -1]], float)
     b = np.array([[0, -1, h], [0, 1, h], [-1, 0, h + 1], [1, 0, h + 1]], float)
-    exact = _distance(_fcl_object(_hull(a)), _fcl_object(_hull(b)))
+    exact = fcl_distance(fcl_object(_hull(a)), fcl_object(_hull(b)))
     faces = np.vstack([ConvexHull(a).equations[:, :3], ConvexHull(b).equations[:, :3]])
     by_faces = separation_bounds([b], [a], np.vstack([faces, -faces]))[0, 0]
     by_crosses = separation_bounds([b], [a], edge_cross_directions(a[1:2] - a[:1], b[1:2] - b[:1]))
@@ -69,12 +69,12 @@ def test_bound_is_tight_on_the_stored_exact_pieces(name):
     swept = np.vstack([g.peg.transformed(start).vertices, seated])
     stored = [parse_stl_triangles_mm(stl_bytes(m)).reshape(-1, 3) for m in exact_pieces(g)]
     bound = separation_bounds(stored, [seated, swept], unit_directions(g.hole_planes[:, :3]))
-    fcl_peg = _fcl_object(g.peg, design)
-    fcl_swept = _fcl_object(_swept_hull(g.peg, start, design))
+    fcl_peg = fcl_object(g.peg, design)
+    fcl_swept = fcl_object(swept_hull(g.peg, start, design))
     near = 0
     for v, b in zip(stored, bound, strict=True):
-        piece = _fcl_object(Mesh(v, np.arange(len(v)).reshape(-1, 3)))
-        exact = np.array([_distance(fcl_peg, piece), _distance(fcl_swept, piece)])
+        piece = fcl_object(Mesh(v, np.arange(len(v)).reshape(-1, 3)))
+        exact = np.array([fcl_distance(fcl_peg, piece), fcl_distance(fcl_swept, piece)])
         assert np.all(b <= exact + 1e-12)
         if exact[0] < 2e-3:  # the pieces around the hole: bound = distance to nanometres
             near += 1

@@ -21,10 +21,10 @@ from sim.assets.loading import load_dataset
 from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
 from sim.task.expert import DIRECT, expert_action
-from sim.engines.warp.batch import _warp
+from sim.engines.warp.batch import warp_modules
 
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
-_warp()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
+warp_modules()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
 
 
 @functools.cache

@@ -19,9 +19,9 @@ import numpy as np
 from assetgen.checks.module_checks import (
     CLEARANCE_TOLERANCE,
     CheckError,
-    _distance,
-    _fcl_object,
-    _swept_hull,
+    fcl_distance,
+    fcl_object,
+    swept_hull,
     topology,
 )
 from assetgen.core.mesh import Mesh
@@ -61,13 +61,13 @@ def check_steps(
     out = []
     for k, step in enumerate(assembly.steps):
         part = assembly.part(step.part)
-        present = [_fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
-        moving = _fcl_object(meshes[part.name], part.pose)
-        seated = min(_distance(moving, other) for other in present)
+        present = [fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
+        moving = fcl_object(meshes[part.name], part.pose)
+        seated = min(fcl_distance(moving, other) for other in present)
         start = part.pose.copy()
         start[:3, 3] += step.travel * _axis(step.bottom)
         path = min(
-            _distance(_fcl_object(_swept_hull(piece, start, part.pose)), other)
+            fcl_distance(fcl_object(swept_hull(piece, start, part.pose)), other)
             for piece in pieces[part.name]
             for other in present
         )

@@ -18,10 +18,10 @@ import numpy as np
 from assetgen.checks.module_checks import (
     CLEARANCE_TOLERANCE,
     CheckError,
-    _distance,
-    _fcl_object,
-    _swept_hull,
+    fcl_distance,
+    fcl_object,
     lifted,
+    swept_hull,
 )
 from assetgen.collision.cell_meshes import cell_fit, largest_residuals
 from assetgen.collision.coacd_pieces import coacd_pieces
@@ -88,10 +88,10 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
         unproven = np.flatnonzero(bound.min(axis=1) < need)
     gaps = bound.min(axis=0) if len(pieces) else np.full(2, np.inf)
     if len(unproven):
-        soup = _fcl_object(_soup([pieces[i] for i in unproven]))
+        soup = fcl_object(_soup([pieces[i] for i in unproven]))
         exact = (
-            _distance(_fcl_object(peg, design), soup),
-            _distance(_fcl_object(_swept_hull(peg, start, design)), soup),
+            fcl_distance(fcl_object(peg, design), soup),
+            fcl_distance(fcl_object(swept_hull(peg, start, design)), soup),
         )
         proven = np.delete(bound, unproven, axis=0)
         gaps = np.minimum(proven.min(axis=0), exact) if len(proven) else np.array(exact)

@@ -22,6 +22,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from assetgen.core.xml_text import xml_number, xml_vector
+
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler")
 
 
@@ -338,15 +340,6 @@ def apply_to_spec(spec, physics: PhysicsConfig) -> None:
 # ----------------------------------------------------------------------------- MJCF text writer
 
 
-def _num(x: float) -> str:
-    x = float(x)
-    return "0" if x == 0 else repr(x)
-
-
-def _vec(v) -> str:
-    return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
-
-
 def _ccd_attributes(physics: PhysicsConfig) -> str:
     """The convex collision's search settings as `<option>` attributes, where they differ
     from MuJoCo's defaults (files written before the fields keep their bytes)."""
@@ -355,7 +348,7 @@ def _ccd_attributes(physics: PhysicsConfig) -> str:
     if physics.ccd_iterations != default.ccd_iterations:
         out += f' ccd_iterations="{physics.ccd_iterations}"'
     if physics.ccd_tolerance != default.ccd_tolerance:
-        out += f' ccd_tolerance="{_num(physics.ccd_tolerance)}"'
+        out += f' ccd_tolerance="{xml_number(physics.ccd_tolerance)}"'
     return out
 
 
@@ -369,10 +362,11 @@ def option_xml(physics: PhysicsConfig, indent: str = "  ") -> list[str]:
     if not physics.refsafe:
         flags.append('refsafe="disable"')
     return [
-        f'{indent}<option timestep="{_num(physics.timestep)}" gravity="0 0 0"'
+        f'{indent}<option timestep="{xml_number(physics.timestep)}" gravity="0 0 0"'
         f' integrator="{physics.integrator}" solver="Newton"'
         f' iterations="{physics.iterations}" cone="{physics.cone}"'
-        f' impratio="{_num(physics.impratio)}" noslip_iterations="{physics.noslip_iterations}"'
+        f' impratio="{xml_number(physics.impratio)}"'
+        f' noslip_iterations="{physics.noslip_iterations}"'
         f"{_ccd_attributes(physics)}>",
         f"{indent}  <flag {' '.join(flags)}/>",
         f"{indent}</option>",
@@ -393,9 +387,9 @@ def geom_default_xml(physics: PhysicsConfig) -> str:
     friction, the detection margin (inactive until penetration: gap = margin)."""
     solref = contact_solref(physics.dampratio, physics)
     return (
-        f'condim="{physics.condim}" friction="{_vec(geom_friction(physics))}"'
-        f' solref="{_vec(solref)}" solimp="{_vec(physics.solimp)}"'
-        f' margin="{_num(physics.contact_margin)}" gap="{_num(physics.contact_margin)}"'
+        f'condim="{physics.condim}" friction="{xml_vector(geom_friction(physics))}"'
+        f' solref="{xml_vector(solref)}" solimp="{xml_vector(physics.solimp)}"'
+        f' margin="{xml_number(physics.contact_margin)}" gap="{xml_number(physics.contact_margin)}"'
     )
 
 
@@ -418,7 +412,7 @@ def actuator_xml(
         kv = kv_lin if k < 3 else kv_rot
         lines.append(
             f'{indent}  <velocity name="{prefix}vel{k}" site="{site}" refsite="{refsite}"'
-            f' gear="{gear}" kv="{_num(kv)}" ctrllimited="false" forcelimited="false"/>'
+            f' gear="{gear}" kv="{xml_number(kv)}" ctrllimited="false" forcelimited="false"/>'
         )
     if block:
         lines.append(f"{indent}</actuator>")

@@ -22,7 +22,7 @@ from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE as MJCF_FILE
 from assetgen.core.inline_mesh import stored
 from assetgen.core.stl import parse_stl_mm, stl_bytes
 from assetgen.core.timing import StepTimes, step
-from assetgen.dataset.module_writer import PEG_MASS, _round, module_id, staged, write_json
+from assetgen.dataset.module_writer import PEG_MASS, module_id, round_measures, staged, write_json
 from assetgen.families.part_mesh import part_mesh
 from assetgen.families.parts import Assembly
 from assetgen.formats.assembly_3mf import assembly_3mf_bytes
@@ -126,6 +126,6 @@ def write_assembly(
             "files": dict(sorted(hashes.items())),
         }
         with step(times, "module.json"):
-            write_json(tmp / "module.json", _round(record))
+            write_json(tmp / "module.json", round_measures(record))
         os.replace(tmp, final)
         return record

@@ -1,9 +1,10 @@
-"""The families the generator knows, by name: each a sampler config (a frozen dataclass
-with validate / to_json / from_json) and a function writing one module of a seed.
+"""A family as the dataset stage runs it: the registry's Family (assetgen.families.registry,
+assetgen.families.interface) with its layout's writer bound.
 
-`peg-in-hole` is the paper's Table I (assetgen.dataset.module_writer: its bytes are the
-ones every earlier dataset holds); `profile-bolt` is the assembly sequence
-(assetgen.families.profile_bolt, written by assetgen.dataset.assembly_writer).
+`family(name).write(seed, config, modules_dir, formats, times)` writes one module of a seed
+through the family's layout: Table I's module writer (assetgen.dataset.module_writer, whose
+bytes every earlier dataset holds) or the assembly writer (assetgen.dataset.assembly_writer)
+for every family that builds an Assembly.
 """
 
 from __future__ import annotations
@@ -14,87 +15,70 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from assetgen.core.timing import StepTimes
+from assetgen.families.interface import Family, resolve
+from assetgen.families.registry import DEFAULT_FAMILY, get
 
 if TYPE_CHECKING:
     from assetgen.families.parts import Assembly
 
-DEFAULT_FAMILY = "peg-in-hole"
+__all__ = ["DEFAULT_FAMILY", "FamilyWriter", "family"]
 
 
 @dataclass(frozen=True)
-class Family:
-    """name: as in `--family`; sampler: its config class; write(seed, config, modules_dir,
-    formats, times) -> module.json, raising ModuleFailure; gaps(record): the measured
-    clearances of a written module (m); rebuild(params JSON) -> the Assembly a module was
-    made from (`assetgen check` compares the files with it), None for Table I modules,
-    which are checked by their own rules."""
+class FamilyWriter:
+    """`spec`, the Family, with what the dataset stage does with it: write a seed's module,
+    read a written module's clearances, rebuild the parts a module was made from."""
 
-    name: str
-    sampler: type
-    write: Callable[[int, object, Path, tuple[str, ...], StepTimes | None], dict]
-    gaps: Callable[[dict], list[float]]
-    rebuild: Callable[[dict], Assembly] | None = None
+    spec: Family
 
+    @property
+    def name(self) -> str:
+        return self.spec.name
 
-def _write_peg_in_hole(seed, config, modules_dir, formats, times) -> dict:
-    from assetgen.dataset.module_writer import generate_module
+    @property
+    def sampler(self) -> type:
+        """The family's sampler config class (a dataset's dataset.json stores one)."""
+        return self.spec.sampler
 
-    return generate_module(seed, config, modules_dir, formats, times)
+    def write(
+        self,
+        seed: int,
+        config,
+        modules_dir: Path,
+        formats: tuple[str, ...],
+        times: StepTimes | None = None,
+    ) -> dict:
+        """Write module `seed` under `config` into modules_dir/<id>/ and return its
+        module.json; ModuleFailure (nothing written) when it cannot be built or fails a
+        check. `formats` are Table I's exporters (an assembly writes all of its files)."""
+        writer = resolve(self.spec.layout.writer)
+        if self.spec.layout.name == "module":
+            return writer(seed, config, modules_dir, formats, times)
+        from assetgen.dataset.module_writer import ModuleFailure
+        from assetgen.params.module_params import ParamError
 
+        try:
+            params = config.sample(seed)
+            assembly = self.spec.build(params)
+        except ParamError as e:
+            raise ModuleFailure(seed, str(e)) from e
+        return writer(self.spec.name, params, assembly, seed, modules_dir, times)
 
-def _write_profile_bolt(seed, config, modules_dir, formats, times) -> dict:
-    from assetgen.dataset.assembly_writer import write_assembly
-    from assetgen.dataset.module_writer import ModuleFailure
-    from assetgen.families.profile_bolt import build_profile_bolt
-    from assetgen.params.module_params import ParamError
+    def gaps(self, record: dict) -> list[float]:
+        """The measured clearances (m) of a written module, from its module.json."""
+        if self.spec.layout.name == "module":
+            return [record["checks"]["clearance_m"]]
+        return [s["clearance_m"] for s in record["checks"]["steps"]]
 
-    try:
-        params = config.sample(seed)
-        assembly = build_profile_bolt(params)
-    except ParamError as e:
-        raise ModuleFailure(seed, str(e)) from e
-    return write_assembly("profile-bolt", params, assembly, seed, modules_dir, times)
-
-
-def _rebuild_profile_bolt(params: dict) -> Assembly:
-    from assetgen.families.profile_bolt import ProfileBoltParams, build_profile_bolt
-
-    return build_profile_bolt(ProfileBoltParams.from_json(params))
-
-
-def _peg_sampler():
-    from assetgen.params.sampler import SamplerConfig
-
-    return SamplerConfig
-
-
-def _profile_bolt_sampler():
-    from assetgen.families.profile_bolt import ProfileBoltSampler
-
-    return ProfileBoltSampler
-
-
-FAMILIES: dict[str, Callable[[], Family]] = {
-    "peg-in-hole": lambda: Family(
-        "peg-in-hole",
-        _peg_sampler(),
-        _write_peg_in_hole,
-        lambda r: [r["checks"]["clearance_m"]],
-    ),
-    "profile-bolt": lambda: Family(
-        "profile-bolt",
-        _profile_bolt_sampler(),
-        _write_profile_bolt,
-        lambda r: [s["clearance_m"] for s in r["checks"]["steps"]],
-        _rebuild_profile_bolt,
-    ),
-}
-"""Family constructors by name (a function each, so naming a family imports only its own
-libraries)."""
+    @property
+    def rebuild(self) -> Callable[[dict], Assembly] | None:
+        """params JSON -> the Assembly a module was made from (`assetgen check` compares the
+        files with it); None for Table I modules, which are checked by their own rules."""
+        if self.spec.layout.name == "module":
+            return None
+        return lambda params: self.spec.build(self.spec.params.from_json(params))
 
 
-def family(name: str) -> Family:
+def family(name: str) -> FamilyWriter:
     """The family called `name`; ValueError listing the valid names otherwise."""
-    if name not in FAMILIES:
-        raise ValueError(f"unknown family {name!r}; valid families: {sorted(FAMILIES)}")
-    return FAMILIES[name]()
+    return FamilyWriter(get(name))

@@ -51,11 +51,13 @@ def module_id(seed: int) -> str:
     return f"{seed:06d}"
 
 
-def _round(x):
+def round_measures(x):
+    """`x` (JSON data: dicts, lists, numbers) with every float rounded to MEASURE_DIGITS
+    places, as module.json is written (an assembly's module.json too)."""
     if isinstance(x, dict):
-        return {k: _round(v) for k, v in x.items()}
+        return {k: round_measures(v) for k, v in x.items()}
     if isinstance(x, list | tuple):
-        return [_round(v) for v in x]
+        return [round_measures(v) for v in x]
     if isinstance(x, float):
         return round(x, MEASURE_DIGITS)
     return x
@@ -192,7 +194,7 @@ def write_module(
         record = ctx.record
         record["files"] = dict(sorted(ctx.hashes.items()))
         with step(times, "module.json"):
-            write_json(tmp / "module.json", _round(record))
+            write_json(tmp / "module.json", round_measures(record))
         with step(times, "rename"):
             os.replace(tmp, final)
         return record

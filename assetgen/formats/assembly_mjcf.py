@@ -35,14 +35,15 @@ from assetgen.core.mujoco_config import (
     physics_version_xml,
     velocity_gains,
 )
+from assetgen.core.xml_text import xml_number, xml_vector
 from assetgen.families.parts import Assembly
-from assetgen.formats.mjcf import ORIGIN_SITE, _num, _vec, verified_model
+from assetgen.formats.mjcf import ORIGIN_SITE, verified_model
 
 BASE = "base"
 
 
 def _frame_attrs(frame: Frame) -> str:
-    return f'pos="{_vec(frame.pos)}" quat="{_vec(frame.quat)}"'
+    return f'pos="{xml_vector(frame.pos)}" quat="{xml_vector(frame.quat)}"'
 
 
 def assembly_mjcf(
@@ -73,7 +74,7 @@ def assembly_mjcf(
         *option_xml(contact),
         "  <custom>",
         *(
-            f'    <numeric name="clearance_{s.part}" data="{_num(s.clearance)}"/>'
+            f'    <numeric name="clearance_{s.part}" data="{xml_number(s.clearance)}"/>'
             for s in assembly.steps
         ),
         f'    <text name="steps" data="{" ".join(s.part for s in assembly.steps)}"/>',
@@ -112,7 +113,8 @@ def assembly_mjcf(
         lines += [
             f'    <body name="{part.name}" {_frame_attrs(pose)}>',
             f'      <freejoint name="{part.name}_free"/>',
-            f'      <inertial pos="{_vec(com)}" mass="{_num(m)}" fullinertia="{_vec(full)}"/>',
+            f'      <inertial pos="{xml_vector(com)}" mass="{xml_number(m)}" '
+            f'fullinertia="{xml_vector(full)}"/>',
             *(
                 f'      <geom name="{mesh_name(part.name, i)}" class="part" '
                 f'mesh="{mesh_name(part.name, i)}"/>'

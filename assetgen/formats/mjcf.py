@@ -59,6 +59,7 @@ from assetgen.core.mujoco_config import (
     velocity_gains,
 )
 from assetgen.core.portable import norm
+from assetgen.core.xml_text import xml_number, xml_vector
 
 __all__ = [
     "CONVEX_TOLERANCE",
@@ -97,17 +98,8 @@ def _check_frame(frame: Frame, name: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ---------------------------------------------------------------------------------------------
-# XML text: deterministic (repr of floats is the shortest round-trip form)
+# XML text: deterministic (assetgen.core.xml_text: repr of floats, the shortest round trip)
 # ---------------------------------------------------------------------------------------------
-
-
-def _num(x: float) -> str:
-    x = float(x)
-    return "0" if x == 0 else repr(x)
-
-
-def _vec(v) -> str:
-    return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
 
 
 def mjcf_text(
@@ -139,7 +131,7 @@ def mjcf_text(
         inertia[1, 2],
     ]
     kv_lin, kv_rot = velocity_gains(float(peg_mass), com, inertia, c)
-    site_size = _num(max(clearance, 0.5e-3))
+    site_size = xml_number(max(clearance, 0.5e-3))
     lines = [
         '<mujoco model="peg_in_hole">',
         "  <!-- assetgen: units m, kg, s; the inline meshes are millimetres (scale 0.001).",
@@ -147,7 +139,7 @@ def mjcf_text(
         '  <compiler angle="radian" inertiafromgeom="false"/>',
         *option_xml(c),
         "  <custom>",
-        f'    <numeric name="{CLEARANCE_NUMERIC}" data="{_num(clearance)}"/>',
+        f'    <numeric name="{CLEARANCE_NUMERIC}" data="{xml_number(clearance)}"/>',
         physics_version_xml(),
         "  </custom>",
         "  <default>",
@@ -167,16 +159,17 @@ def mjcf_text(
     lines += [
         "  </asset>",
         "  <worldbody>",
-        f'    <site name="entrance" pos="{_vec(ent_pos)}" quat="{_vec(ent_quat)}"/>',
-        f'    <site name="bottom" pos="{_vec(bot_pos)}" quat="{_vec(bot_quat)}"/>',
+        f'    <site name="entrance" pos="{xml_vector(ent_pos)}" quat="{xml_vector(ent_quat)}"/>',
+        f'    <site name="bottom" pos="{xml_vector(bot_pos)}" quat="{xml_vector(bot_quat)}"/>',
         f'    <site name="{ORIGIN_SITE}" pos="0 0 0"/>',
     ]
     for i in range(len(pieces)):
         lines.append(f'    <geom name="{piece_name(i)}" class="module" mesh="{piece_name(i)}"/>')
     lines += [
-        f'    <body name="{PEG_BODY}" pos="{_vec(peg_pos)}" quat="{_vec(peg_quat)}">',
+        f'    <body name="{PEG_BODY}" pos="{xml_vector(peg_pos)}" quat="{xml_vector(peg_quat)}">',
         f'      <freejoint name="{PEG_JOINT}"/>',
-        f'      <inertial pos="{_vec(com)}" mass="{_num(peg_mass)}" fullinertia="{_vec(full)}"/>',
+        f'      <inertial pos="{xml_vector(com)}" mass="{xml_number(peg_mass)}" '
+        f'fullinertia="{xml_vector(full)}"/>',
         f'      <geom name="{PEG_GEOM}" class="peg" mesh="{PEG_MESH}"/>',
         '      <site name="peg_bottom" pos="0 0 0"/>',
         "    </body>",

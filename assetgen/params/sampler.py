@@ -91,6 +91,10 @@ class SamplerConfig:
             clearance=self.clearance,
         )
 
+    def sample(self, seed: int, draw: int = 0) -> ModuleParams:
+        """The module parameters of `seed` under this config (sample_params)."""
+        return sample_params(self, seed, draw)
+
     def to_json(self) -> dict:
         return config_to_json(self)
 

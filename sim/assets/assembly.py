@@ -17,7 +17,7 @@ import numpy as np
 from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
 from assetgen.core.mesh import StoredMesh
 from assetgen.core.stl import read_stl_mm
-from sim.assets.loading import AssetError, ModuleAsset, _frame, _read
+from sim.assets.loading import AssetError, ModuleAsset, frame_matrix, read_module_file
 
 
 class AssemblyStages:
@@ -30,26 +30,26 @@ class AssemblyStages:
         self.dir = d
         self._meta_path = d / "module.json"
         try:
-            self.meta = json.loads(_read(self._meta_path))
+            self.meta = json.loads(read_module_file(self._meta_path))
             self.steps: list[dict] = list(self.meta["steps"])
             self.parts: list[str] = [s["part"] for s in self.steps]
         except (json.JSONDecodeError, KeyError, TypeError) as e:
             raise AssetError(f"{self._meta_path}: not an assembly module ({e})") from e
         self._inline = read_inline_meshes(
-            _read(d / ASSEMBLY_MJCF_FILE), str(d / ASSEMBLY_MJCF_FILE)
+            read_module_file(d / ASSEMBLY_MJCF_FILE), str(d / ASSEMBLY_MJCF_FILE)
         )
         self._base = tuple(part_pieces(self._inline, "base"))
         self._surface: dict[str, StoredMesh] = {}
 
     def design_pose(self, step: int) -> np.ndarray:
         """(4, 4) pose of step `step`'s part where the design seats it (module frame)."""
-        return _frame(self._step(step)["design_pose"], "design_pose", self._meta_path)
+        return frame_matrix(self._step(step)["design_pose"], "design_pose", self._meta_path)
 
     def insertion_axis(self, step: int) -> np.ndarray:
         """(3,) unit direction step `step`'s part moves in to seat: entrance to bottom."""
         s = self._step(step)
-        e = _frame(s["entrance"], "entrance", self._meta_path)[:3, 3]
-        b = _frame(s["bottom"], "bottom", self._meta_path)[:3, 3]
+        e = frame_matrix(s["entrance"], "entrance", self._meta_path)[:3, 3]
+        b = frame_matrix(s["bottom"], "bottom", self._meta_path)[:3, 3]
         return (b - e) / np.linalg.norm(b - e)
 
     def _step(self, step: int) -> dict:
@@ -87,8 +87,8 @@ class AssemblyStages:
         return ModuleAsset(
             id=f"{self.meta.get('id', self.dir.name)}/{part}",
             clearance=float(s["clearance"]),
-            entrance=_frame(s["entrance"], "entrance", self._meta_path),
-            bottom=_frame(s["bottom"], "bottom", self._meta_path),
+            entrance=frame_matrix(s["entrance"], "entrance", self._meta_path),
+            bottom=frame_matrix(s["bottom"], "bottom", self._meta_path),
             peg=self._surface[part],
             peg_mass=mass,
             peg_com=com,

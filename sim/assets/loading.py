@@ -64,7 +64,10 @@ def read_meshes(data: bytes, name: str) -> tuple[Mesh, tuple[Mesh, ...]]:
         raise AssetError(f"{e}; regenerate the module (`assetgen check DATASET --repair`)") from e
 
 
-def _frame(d: dict, name: str, where: Path) -> np.ndarray:
+def frame_matrix(d: dict, name: str, where: Path) -> np.ndarray:
+    """The (4, 4) matrix of the frame `d` ({"pos": 3, "quat": 4 (w, x, y, z)}) as
+    module.json records it; AssetError naming the frame `name` and the file `where` when it
+    is malformed or not finite."""
     try:
         pos = np.asarray(d["pos"], dtype=float)
         quat = np.asarray(d["quat"], dtype=float)
@@ -78,7 +81,8 @@ def _frame(d: dict, name: str, where: Path) -> np.ndarray:
     return m
 
 
-def _read(path: Path) -> bytes:
+def read_module_file(path: Path) -> bytes:
+    """The bytes of one of a module's files; AssetError with advice when it cannot be read."""
     try:
         return path.read_bytes()
     except OSError as e:
@@ -92,7 +96,7 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
     d = Path(module_dir)
     meta_path = d / "module.json"
     try:
-        meta = json.loads(_read(meta_path))
+        meta = json.loads(read_module_file(meta_path))
         frames = meta["frames"]
         peg = meta["peg"]
         clearance = float(meta["clearance"])
@@ -113,12 +117,12 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
             f"{mjcf}: missing; the simulator reads the meshes from the MJCF (generate the "
             "dataset with the `mjcf` format, the default)"
         )
-    peg_mesh, pieces = read_meshes(_read(mjcf), str(mjcf))
+    peg_mesh, pieces = read_meshes(read_module_file(mjcf), str(mjcf))
     return ModuleAsset(
         id=str(meta.get("id", d.name)),
         clearance=clearance,
-        entrance=_frame(frames.get("entrance", {}), "entrance", meta_path),
-        bottom=_frame(frames.get("bottom", {}), "bottom", meta_path),
+        entrance=frame_matrix(frames.get("entrance", {}), "entrance", meta_path),
+        bottom=frame_matrix(frames.get("bottom", {}), "bottom", meta_path),
         peg=peg_mesh,
         peg_mass=mass,
         peg_com=com,

@@ -22,7 +22,7 @@ import numpy as np
 from sim.assets.loading import ModuleAsset
 from sim.task.config import TaskConfig
 from sim.bench.stress import Run, StressConfig, _figures, module_runs, press_as_force
-from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, _warp
+from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, warp_modules
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
 
@@ -32,7 +32,7 @@ def _kernels():
     """Warp kernels: the commands of step t into every world, and the record of step t
     (state, and the deepest contact of each world: MuJoCo's contact sensor, reduced to the
     contact of least distance)."""
-    wp, _ = _warp()
+    wp, _ = warp_modules()
 
     @wp.kernel
     def set_ctrl(table: wp.array3d(dtype=float), t: int, ctrl: wp.array2d(dtype=float)):
@@ -79,7 +79,7 @@ def stress_warp(
     """Every run of every module on MuJoCo Warp, one world a run; one record (its figures)
     a run, as sim.bench.stress.stress gives them. device: a Warp device (None: the GPU if
     there is one)."""
-    wp, mjw = _warp()
+    wp, mjw = warp_modules()
     plan = [(a, *module_runs(a, cfg)) for a in assets]
     worlds = [a for a, runs, _ in plan for _ in runs]
     sim = WarpBatchSim(worlds, task, device=device, nconmax=nconmax, njmax=njmax,

@@ -57,7 +57,7 @@ NJMAX = 384
 up to 276 seen in those runs."""
 
 
-def _warp():
+def warp_modules():
     try:
         import warp as wp
 
@@ -77,7 +77,7 @@ def _warp():
 @functools.cache
 def _contact_kernel():
     """A Warp kernel: world idx[i]'s peg geom gets friction[i] and solref[i]."""
-    wp, _ = _warp()
+    wp, _ = warp_modules()
 
     @wp.kernel
     def set_peg_contact(
@@ -97,7 +97,7 @@ def _contact_kernel():
 
 def default_device() -> str:
     """cuda:0 where Warp sees a GPU, else cpu."""
-    wp, _ = _warp()
+    wp, _ = warp_modules()
     return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
@@ -165,7 +165,7 @@ class WarpBatchSim(PegStateViews):
         njmax: int = NJMAX,
         per_world: tuple[str, ...] = (),
     ) -> None:
-        wp, mjw = _warp()
+        wp, mjw = warp_modules()
         if task.physics is None:
             raise ValueError("WarpBatchSim needs the task's physics (TaskConfig.physics)")
         self.task = task

@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, fields, replace
 import numpy as np
 
 from assetgen.core.frames import Frame
+from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.params.module_params import ParamError
@@ -271,15 +272,25 @@ class ProfileBoltSampler:
     """Uniform ranges of the sampled parameters (SI units); clearances fixed."""
 
     profile_side: tuple[float, float] = (0.015, 0.03)
+    """Side of the profile's square section, m."""
     profile_length: tuple[float, float] = (0.05, 0.1)
+    """Profile length, m (raised to the insertion depth + 5 mm where shorter)."""
     insertion_depth: tuple[float, float] = (0.02, 0.045)
+    """How deep the profile goes into the socket, m."""
     slot_probability: float = 0.5
+    """Probability of T-slots along the profile's four faces."""
     bolt_diameter: tuple[float, float] = (0.004, 0.008)
+    """Shank diameter, m (capped so that its hole fits in the profile and the socket)."""
     bolt_height: tuple[float, float] = (0.35, 0.65)
+    """Bolt axis above the profile's bottom, fraction of the insertion depth."""
     wall: tuple[float, float] = (0.008, 0.015)
+    """Socket block wall around the socket, m."""
     engagement: tuple[float, float] = (0.3, 0.6)
+    """How far the bolt's tip goes into the far wall, fraction of the wall."""
     profile_clearance: float = 0.25e-3
+    """Profile to socket, m (fixed; `--clearance-mm` sets it)."""
     bolt_clearance: float = 0.5e-3
+    """Bolt to block and profile, m (fixed)."""
 
     @property
     def clearance(self) -> float:
@@ -350,3 +361,14 @@ class ProfileBoltSampler:
             profile_clearance=self.profile_clearance,
             bolt_clearance=self.bolt_clearance,
         )
+
+
+FAMILY = Family(
+    name="profile-bolt",
+    summary="a square profile into a socket at 0.25 mm, then a bolt from the side through "
+    "the block and the profile",
+    sampler=ProfileBoltSampler,
+    params=ProfileBoltParams,
+    build=build_profile_bolt,
+)
+"""The family (assetgen.families.interface); its modules take the assembly layout."""
