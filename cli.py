@@ -229,109 +229,50 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_bench(args: argparse.Namespace) -> int:
-    if args.what == "sim":
-        from assetgen.dataset.spec import DatasetError
-        from sim.assets.loading import AssetError
-        from sim.bench.throughput import bench_main
+def _eval_hooks():
+    import numpy as np
 
-        try:
-            return bench_main(args)
-        except (DatasetError, AssetError, ValueError, ImportError) as e:
-            return _err(str(e))
-    if getattr(args, "sim", "mujoco") != "mujoco" and args.what not in ("contacts", "load"):
-        return _err(
-            f"bench {args.what} --sim {args.sim}: only `bench sim`, `bench contacts` and "
-            "`bench load` take another engine than mujoco"
-        )
-    if args.what == "contacts":
-        from assetgen.dataset.spec import DatasetError
-        from sim.assets.loading import AssetError
-        from sim.bench.stress import main as contacts_main
+    from rl.commands import EvalHooks
+    from sim import make_eval_env
+    from sim.task.expert import EXPERTS
+    from evaluation.recording import EpisodeRecorder, env_labels
+    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
 
-        if not args.target:
-            return _err("bench contacts needs a dataset: assetgen bench contacts DATASET")
-        args.dataset = args.target
-        try:
-            if args.sim == "mujoco-warp":
-                from sim.bench.stress_warp import stress_warp
+    def random_agent(seed: int):
+        rng = np.random.default_rng(seed)
+        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 6))
 
-                return contacts_main(args, warp_stress=stress_warp)
-            if args.sim == "physx":
-                from sim.bench.stress_physx import stress_physx
-
-                return contacts_main(args, stress_physx)
-            return contacts_main(args)
-        except (DatasetError, AssetError, ValueError) as e:
-            return _err(str(e))
-    if args.what == "load":
-        from assetgen.dataset.spec import DatasetError, resolve
-        from sim.assets.loading import AssetError
-        from sim.bench.build import bench_build
-        from sim.bench.load import bench_load
-
-        try:
-            root = resolve(args.dataset)[0]
-            result = bench_load(root, n=args.n)
-            # and what the engine (--sim) costs a module at construction
-            built = bench_build(root, n=args.n, engine=args.sim)
-            result |= {f"{args.sim}_{k}": v for k, v in built.items() if k != "engine"}
-        except (DatasetError, AssetError, ValueError) as e:
-            return _err(str(e))
-    elif args.what == "assets":
-        from assetgen.bench import bench_assets
-
-        try:
-            result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
-        except ValueError as e:
-            return _err(str(e))
-    else:
-        return _err(f"unknown benchmark {args.what!r}; valid: assets, sim, load, contacts")
-    table = Table(title=f"bench {args.what}", show_header=False)
-    for k, v in result.items():
-        if not isinstance(v, dict):
-            table.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
-    console.print(table)
-    steps = result.get("step_ms", {})
-    if steps:
-        t = Table(title="per module, each step (ms, one worker's wall time)")
-        t.add_column("step")
-        t.add_column("ms", justify="right")
-        for k, v in steps.items():
-            t.add_row(k, f"{v:.2f}")
-        console.print(t)
-    if args.json:
-        print(json.dumps(result))
-    return 0
+    return EvalHooks(
+        make_env=make_eval_env,
+        agents={
+            **{name: (lambda seed, act=act: act) for name, act in EXPERTS.items()},
+            "random": random_agent,
+        },
+        labels=env_labels,
+        recorder=EpisodeRecorder,
+        policies={**dict.fromkeys(EXPERTS, "deterministic"), "random": "stochastic"},
+        is_sequence=is_assembly_dataset,
+        run_sequence=evaluate_assembly_dataset,
+    )
 
 
-def cmd_families(args: argparse.Namespace) -> int:
-    from rich.markup import escape
+def cmd_eval(args: argparse.Namespace) -> int:
+    from rl.commands import eval_main
 
-    from assetgen.families.registry import describe
-
-    families = describe()
-    if args.json:
-        print(json.dumps(families))
-        return 0
-    table = Table(title="families (assetgen sample --family NAME)")
-    for column in ("family / parameter", "default", "meaning"):
-        table.add_column(column, no_wrap=column != "meaning")
-    for f in families:
-        table.add_row(f"[bold]{f['name']}[/]", "", escape(f"{f['summary']} ({f['layout']})"))
-        for q in f["parameters"]:
-            d = q["default"]
-            shown = ", ".join(f"{v:.6g}" for v in d) if isinstance(d, list) else f"{d:.6g}"
-            table.add_row(f"  {q['name']}", shown, escape(q["doc"]))
-    console.print(table)
-    return 0
+    if (args.agent is None) == (args.checkpoint is None):
+        agents = "|".join((*EXPERT_NAMES, "random"))
+        return _err(f"give one of --agent {agents} and --checkpoint RUN_DIR")
+    args.run, args.episodes = args.checkpoint, args.attempts
+    return eval_main(args, _eval_hooks())
 
 
 # ----------------------------------------------------------------------------- main
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rl.commands import add_sim_argument
+    from assetgen.bench import add_parser as add_assets_bench
+    from sim.bench.command import add_parsers as add_sim_benches
+    from sim.engines.registry import add_engine_argument
 
     p = argparse.ArgumentParser(
         prog="assetgen", description="Procedural peg-in-hole modules, simulation and learning."
@@ -390,58 +331,9 @@ def build_parser() -> argparse.ArgumentParser:
     fa.set_defaults(func=cmd_families)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
-    b.add_argument("what", choices=["assets", "sim", "load", "contacts"], help="what to measure")
-    b.add_argument(
-        "target", nargs="?", help="contacts: the dataset (spec name or folder) to stress"
-    )
-    b.add_argument("--n", type=int, default=256, help="modules (assets, load)")
-    b.add_argument("--envs", type=int, default=1024, help="environments (sim)")
-    b.add_argument("--steps", type=int, default=200, help="control steps (sim)")
-    b.add_argument("--dataset", default="test", help="dataset (sim, load; default test)")
-    b.add_argument("--threads", type=int, default=None, help="rollout threads (sim)")
-    b.add_argument(
-        "--shard-size", type=int, default=None, help="sim: envs per MuJoCo model (default 8)"
-    )
-    b.add_argument("--workers", type=int, default=None)
-    b.add_argument(
-        "--json",
-        nargs="?",
-        const=True,
-        default=False,
-        help="print the figures as JSON last (contacts: write every run's figures to this file)",
-    )
-    b.add_argument("--limit", type=int, default=None, help="contacts: the first N modules only")
-    b.add_argument(
-        "--set",
-        action="append",
-        metavar="FIELD=VALUE",
-        help="contacts: replace a PhysicsConfig field (repeatable), e.g. --set timestep=0.001",
-    )
-    b.add_argument(
-        "--source",
-        choices=["sim", "mjcf"],
-        default="sim",
-        help="contacts: the simulator's models of the modules (default) or their exported "
-        "peg_in_hole.xml files with the physics they carry",
-    )
-    b.add_argument("--cases", help="contacts: push,impact,friction,rebound (default: all)")
-    add_sim_argument(
-        b,
-        "sim, contacts: the engine (physx: the referee, from the USD files; the physx "
-        "extra; mujoco-warp: the simulator on a GPU, sim only; the warp extra)",
-    )
-    b.add_argument(
-        "--push-time", type=float, default=None, help="contacts: seconds a push lasts (1.5)"
-    )
-    b.add_argument(
-        "--physics-version",
-        type=int,
-        default=None,
-        help="contacts: simulate with an earlier physics version's settings (1: generator "
-        "0.5.0's 5 ms steps), for comparison; default: the project's",
-    )
-    b.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
-    b.set_defaults(func=cmd_bench)
+    targets = b.add_subparsers(dest="what", required=True, metavar="{assets,sim,load,contacts}")
+    add_assets_bench(targets)
+    add_sim_benches(targets)
 
     from evaluation.command import add_arguments as add_eval_arguments
     from evaluation.command import main as eval_command
@@ -460,22 +352,18 @@ def build_parser() -> argparse.ArgumentParser:
     # add over a second to every command
     from rl.commands import add_export_parser, add_report_parser, add_train_parser
 
-    add_train_parser(sub, _train_env, TEACHERS, _probe)
+    add_train_parser(sub, _train_env, TEACHERS, _probe, add_engine_argument)
     add_report_parser(sub)
     add_export_parser(sub)
     return p
 
 
-def _train_env(*args, **kwargs):
+def _train_env(*args, engine: str | None = None, **kwargs):
     # the simulator (MuJoCo, with its GL bindings: ~0.3 s) is imported when a command uses
     # it, not by every command's parser: `assetgen sample` is timed whole
-    if kwargs.get("engine") == "mujoco-warp":  # the task on the device too (sim/engines/warp/env.py)
-        from sim.engines.warp.env import make_device_train_env
+    from sim.engines.registry import train_env_factory
 
-        return make_device_train_env(*args, **kwargs)
-    from sim import make_train_env
-
-    return make_train_env(*args, **kwargs)
+    return train_env_factory(engine)(*args, **kwargs)
 
 
 def _probe(*args, **kwargs):
@@ -520,11 +408,15 @@ COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl", "e
 def missing_extra_message(command: str, module: str, engine: str | None = None) -> str | None:
     """The one-line advice for a missing optional library (None: not an optional one);
     `engine`: the command's --sim, whose extra is named first."""
+    from sim.engines.registry import ENGINES
+
     top = module.split(".")[0]
     extras = EXTRAS.get(top)
     if extras is None:
         return None
-    first = engine if engine in extras else COMMAND_EXTRA.get(command)
+    spec = ENGINES.get(engine or "")
+    first = spec.extra if spec is not None and spec.extra in extras else None
+    first = first or COMMAND_EXTRA.get(command)
     extra = first if first in extras else extras[0]
     return (
         f"`assetgen {command}` needs the Python package {top!r}, which comes with the "
@@ -536,11 +428,11 @@ def missing_extra_message(command: str, module: str, engine: str | None = None) 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if getattr(args, "sim", None) == "mujoco-warp":
-            from sim.engines.warp.batch import require_gpu
+        if hasattr(args, "sim"):
+            from sim.engines.registry import check_device
 
-            try:  # before any env is built: without a GPU Warp would run on the CPU
-                require_gpu(bool(getattr(args, "allow_cpu", False)))
+            try:  # before any env is built: an engine for a GPU would run on the CPU
+                check_device(args)
             except ValueError as e:
                 return _err(str(e))
         return args.func(args)

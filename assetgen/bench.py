@@ -2,15 +2,32 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import tempfile
 import time
 from pathlib import Path
 
-from assetgen.dataset.generate import generate
-from assetgen.dataset.spec import DatasetSpec
-from assetgen.formats.registry import available_formats
-from assetgen.params.sampler import SamplerConfig
+
+def add_parser(bench: argparse._SubParsersAction) -> None:
+    """`assetgen bench assets`, beside the code it drives."""
+    p = bench.add_parser("assets", help="modules per second of the whole generator")
+    p.add_argument("--n", type=int, default=256, help="modules (default 256)")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: one a core)")
+    p.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON last")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from assetgen.core.console_output import print_error, print_figures
+
+    try:
+        result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
+    except ValueError as e:
+        return print_error(str(e))
+    print_figures("bench assets", result, args.json)
+    return 0
 
 
 def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = None) -> dict:
@@ -23,6 +40,11 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
     wall milliseconds per module of each pipeline step (summed over the workers, so they add
     up to about workers x seconds / modules), which shows which step a regression is in.
     """
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetSpec
+    from assetgen.formats.registry import available_formats
+    from assetgen.params.sampler import SamplerConfig
+
     workers = workers or os.cpu_count() or 1
     if where is not None:
         try:

@@ -29,13 +29,8 @@ from typing import Any
 import numpy as np
 
 from evaluation.protocol import Policy
-from rl.commands import (
-    MakeEnv,
-    _engine_kwargs,  # until sim/engines/ holds the engines' registry
-    add_sim_argument,
-    print_error,
-    torch_threads,
-)
+from rl.commands import MakeEnv, print_error, torch_threads
+from sim.engines.registry import add_engine_argument, get_engine
 
 SNAPSHOT_EVERY_S = 300.0
 """Seconds between the snapshots of a checkpoint's evaluation with --out
@@ -64,7 +59,7 @@ def add_arguments(e: argparse.ArgumentParser, experts: tuple[str, ...]) -> None:
         "--modules", type=int, default=None,
         help="the dataset's first N modules (or assemblies) only (default: all, the protocol)",
     )  # fmt: skip
-    add_sim_argument(
+    add_engine_argument(
         e,
         "physics engine: MuJoCo (the simulator), PhysX (the referee: SAPIEN on the CPU, "
         "read from the USD files; the physx extra) or MuJoCo Warp (the simulator's physics on "
@@ -149,7 +144,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
     noise_scale = 1.0 if noise_scale is None else float(noise_scale)  # 0 is a valid scale
     record = getattr(args, "record", None)
     keep = bool(getattr(args, "keep_dataset_physics", False))
-    engine = getattr(args, "sim", None) or "mujoco"
+    engine = get_engine(getattr(args, "sim", None))
     # a subset reaches the factories only when asked for: the protocol plays every module
     limit = getattr(args, "modules", None)
     subset: dict[str, Any] = {} if limit is None else {"modules": limit}
@@ -160,15 +155,15 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         if limit is not None and limit < 1:
             raise ValueError(f"--modules {limit}: give at least 1 module, or leave it out")
-        on_engine = _engine_kwargs(args)
+        on_engine = dict(getattr(args, "engine_options", None) or {})
         if simulator:
             from evaluation.sequence import is_assembly_dataset
 
             sequence = is_assembly_dataset(args.dataset)
         else:
             sequence = False
-        if sequence and on_engine:
-            raise ValueError(f"--sim {engine}: assemblies in sequence run on MuJoCo only")
+        if sequence and not engine.assemblies:
+            raise ValueError(f"--sim {engine.name}: assemblies in sequence run on MuJoCo only")
         reset = None
         policy_state = None
         wrap: Callable[[Any], Any] = lambda env: env  # noqa: E731
@@ -260,7 +255,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
             recorder = EpisodeRecorder(Path(record), getattr(args, "record_limit", None))
         saveable = reset is None or policy_state is not None
         if out is not None and run is not None and saveable and recorder is None:
-            if engine == "mujoco" and hasattr(env, "get_state"):
+            if engine.saves_state and hasattr(env, "get_state"):
                 # a checkpoint's evaluation can take an hour: a cut one goes on from its snapshot
                 import torch
 

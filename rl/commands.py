@@ -98,10 +98,13 @@ def add_train_parser(
     make_env: MakeEnv,
     teachers: dict[str, Callable[[], Teacher]] | None = None,
     make_probe: MakeProbe | None = None,
+    add_engine_argument: Callable[[argparse.ArgumentParser, str], None] | None = None,
 ) -> argparse.ArgumentParser:
     """Register `train` on an argparse subparsers object; `teachers` maps the names that
     --demos accepts to functions that build the policy; `make_probe` builds the probe of
-    --probe-steps (MakeProbe)."""
+    --probe-steps (MakeProbe); `add_engine_argument(parser, help)` adds the simulator's
+    engine flag (`--sim`, which leaves `engine_options` for make_env), when the caller has
+    engines to offer."""
     from rl.names import ALGO_NAMES, PRESET_NAMES
 
     p = subparsers.add_parser(
@@ -136,12 +139,13 @@ def add_train_parser(
     p.add_argument("--out", type=Path, required=True, help="run folder")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--envs", type=int, help="parallel envs (default: the preset's)")
-    add_sim_argument(
-        p,
-        "physics engine: MuJoCo (the simulator), PhysX (the referee, one env per module: "
-        "--envs must cover the dataset; the physx extra) or MuJoCo Warp (the simulator's "
-        "physics on a GPU; the warp extra)",
-    )
+    if add_engine_argument is not None:
+        add_engine_argument(
+            p,
+            "physics engine: MuJoCo (the simulator), PhysX (the referee, one env per module: "
+            "--envs must cover the dataset; the physx extra) or MuJoCo Warp (the simulator's "
+            "physics on a GPU; the warp extra)",
+        )
     p.add_argument(
         "--curriculum-steps",
         type=int,
@@ -219,27 +223,10 @@ def add_train_parser(
     return p
 
 
-SIM_CHOICES = ("mujoco", "physx", "mujoco-warp")
-"""`--sim`'s engines: sim.env.ENGINES, spelled here so that the parser needs no simulator
-import (tests/test_warp.py holds them equal)."""
-
-
-def add_sim_argument(p: argparse.ArgumentParser, help: str) -> None:
-    """`--sim`, the one engine flag of train, eval and the benches."""
-    p.add_argument("--sim", choices=SIM_CHOICES, default="mujoco", help=help)
-    p.add_argument(
-        "--allow-cpu",
-        action="store_true",
-        help="--sim mujoco-warp without a GPU: run on Warp's CPU device (hundreds of times "
-        "slower than --sim mujoco; for checks only)",
-    )
-
-
 def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """`engine=` for the env factories from --sim, only when it is not the default engine
-    (factories written before the flag need not take it)."""
-    engine = getattr(args, "sim", None) or "mujoco"
-    return {} if engine == "mujoco" else {"engine": engine}
+    """`engine=` for the env factories, as the engine flag (sim/engines/registry.py's
+    add_engine_argument) left it: empty for the default engine."""
+    return dict(getattr(args, "engine_options", None) or {})
 
 
 def train_main(

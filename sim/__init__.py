@@ -1,30 +1,44 @@
-"""Batched MuJoCo simulation of the peg-in-hole task over a dataset of modules.
+"""Batched simulation of the peg-in-hole task over a dataset of modules.
 
     from sim import PegInHoleVecEnv, TaskConfig
     env = PegInHoleVecEnv("datasets/test", num_envs=1024, config=TaskConfig())
     obs = env.reset(seed=0)
     obs, reward, terminated, truncated, info = env.step(actions)
 
-Files: config.py (the task's numbers), assets.py (module.json + STL only), scene.py (MJCF
-model of one or more envs), batch.py (mujoco.rollout over per-env models), task.py
-(observation, reward, success, failure, spawn), step_kernel.py (the per-step arithmetic,
-compiled), env.py (the vector env), expert.py (a scripted expert), recording.py (episodes
-for the preview), bench.py (throughput), gym_adapter.py / torch_adapter.py (gymnasium and
-torch views), usd_module.py / physx_config.py / physx_batch.py (PhysX, the referee engine).
+Folders: engines/ (the physics engines behind one interface, and their registry), task/ (the
+task's numbers and rules, the per-step kernels, curricula and a scripted expert), assets/
+(what the simulator reads of a dataset), bench/ (throughput, load and contact stress
+benchmarks), adapters/ (gymnasium and torch views); env.py is the vector env.
+
+The names below are imported on first use, so that `import sim.engines.registry` (the
+command line's parsers) loads neither MuJoCo nor the compiled kernels.
 """
 
-from sim.assets.loading import AssetError, load_dataset, load_module
-from sim.task.config import EVAL_CONFIG, PhysicsConfig, TaskConfig
-from sim.env import PegInHoleVecEnv, make_eval_env, make_train_env
+from __future__ import annotations
 
-__all__ = [
-    "EVAL_CONFIG",
-    "AssetError",
-    "PegInHoleVecEnv",
-    "PhysicsConfig",
-    "TaskConfig",
-    "load_dataset",
-    "load_module",
-    "make_eval_env",
-    "make_train_env",
-]
+import importlib
+from typing import Any
+
+_LAZY = {
+    "AssetError": "sim.assets.loading",
+    "load_dataset": "sim.assets.loading",
+    "load_module": "sim.assets.loading",
+    "EVAL_CONFIG": "sim.task.config",
+    "PhysicsConfig": "sim.task.config",
+    "TaskConfig": "sim.task.config",
+    "PegInHoleVecEnv": "sim.env",
+    "make_eval_env": "sim.env",
+    "make_train_env": "sim.env",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'sim' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

@@ -29,7 +29,7 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +41,8 @@ from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim.task import kernel as K
 from sim.task import rules as T
 from sim.assets.loading import ModuleAsset, check_physics, dataset_root, load_dataset
-from sim.engines.mujoco.batch import BatchSim
+from sim.engines.base import EngineOptions
+from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.task.config import TaskConfig
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
@@ -58,11 +59,6 @@ def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
         [rng.permutation(num_modules) for _ in range(-(-(num_envs - num_modules) // num_modules))]
     )
     return np.concatenate([np.arange(num_modules), extra[: num_envs - num_modules]])
-
-
-ENGINES = ("mujoco", "physx", "mujoco-warp")
-"""Physics engines the env runs on: MuJoCo on the CPU (the simulator), PhysX (the referee,
-sim/engines/physx/batch.py), MuJoCo Warp (the simulator's physics on a GPU, sim/engines/warp/batch.py)."""
 
 
 class PegInHoleVecEnv:
@@ -88,14 +84,13 @@ class PegInHoleVecEnv:
         nthread: int | None = None,
         shard_size: int = 8,
         rotate_modules: bool = False,
-        engine: str = "mujoco",
+        engine: str = DEFAULT_ENGINE,
         physx: PhysxConfig | None = None,
         warp_device: str | None = None,
     ) -> None:
-        if engine not in ENGINES:
-            raise ValueError(f"engine = {engine!r}; expected one of {ENGINES}")
-        self.engine = engine
-        """The physics engine, one of ENGINES."""
+        spec = get_engine(engine)
+        self.engine = spec.name
+        """The physics engine's name (sim/engines/registry.py)."""
         self.cfg = (config or TaskConfig()).validate()
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
@@ -114,50 +109,42 @@ class PegInHoleVecEnv:
         self.env_module = assign_modules(len(modules), self.num_envs, assignment_seed)
         assets = [modules[k] for k in self.env_module]
         self.rotate_modules = rotate_modules and self.num_envs < len(modules)
-        self._queue: list[int] = []
+        self.module_queue: list[int] = []
         """Modules waiting for an env (rotation): a finished episode's module goes to the
         back, its env takes the front one, so all modules take turns evenly."""
         spare = None
         if self.rotate_modules:
             shard_size = 1  # an env changes model at its resets
             rest = np.setdiff1d(np.arange(len(modules)), self.env_module)
-            self._queue = np.random.default_rng(assignment_seed).permutation(rest).tolist()
-            spare = [modules[k] for k in self._queue]
-        self._first_assignment = (self.env_module.copy(), list(self._queue))
+            self.module_queue = np.random.default_rng(assignment_seed).permutation(rest).tolist()
+            spare = [modules[k] for k in self.module_queue]
+        self.first_assignment = (self.env_module.copy(), list(self.module_queue))
         """The modules' order at construction, which a seeded reset restores."""
-        if engine == "physx":
-            if self.rotate_modules:
-                raise ValueError(
-                    f"engine = 'physx' serves one env per module ({len(modules)} modules, "
-                    f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
-                )
-            from sim.engines.physx.batch import PhysxBatchSim
-
-            self.sim = PhysxBatchSim(assets, self.cfg, physx)
-        elif engine == "mujoco-warp":
-            from sim.engines.warp.batch import WarpBatchSim
-
-            self.sim = WarpBatchSim(assets, self.cfg, spare, device=warp_device)
-        else:
-            self.sim = BatchSim(assets, self.cfg, nthread, shard_size, spare)
+        if spec.one_env_per_module and self.rotate_modules:
+            raise ValueError(
+                f"engine = {spec.name!r} serves one env per module ({len(modules)} modules, "
+                f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
+            )
+        options = EngineOptions(nthread, shard_size, physx, warp_device)
+        self.sim = spec.load("sim").create(assets, self.cfg, spare, options)
         self.control_dt = self.cfg.control_dt
-        self.stateful = engine == "mujoco"
-        """Whether get_state / set_state work (rl/vec_env.py's is_stateful): MuJoCo's state is
-        arrays; PhysX's scene and MuJoCo Warp's device state are not saved, so a run on them
-        resumes from a fresh reset."""
+        self.stateful = self.sim.saves_state
+        """Whether get_state / set_state work (rl/vec_env.py's is_stateful): an engine whose
+        state is host arrays saves it; one whose scene or device state is not saved resumes
+        from a fresh reset."""
         self.protocol: dict[str, Any] = {}
         """How this env evaluates, for evaluation files (make_eval_env fills it)."""
 
         # per-module constants (of every module when rotating, else of the envs' modules),
         # indexed per env by _use_modules
         known = np.arange(len(modules)) if self.rotate_modules else np.unique(self.env_module)
-        self._mod_row = np.full(len(modules), -1)
-        self._mod_row[known] = np.arange(len(known))
+        self.module_row = np.full(len(modules), -1)
+        self.module_row[known] = np.arange(len(known))
         m_assets = [modules[k] for k in known]
         entrance = np.stack([a.entrance for a in m_assets])
         bottom = np.stack([a.bottom for a in m_assets])
-        self._mod_frames = T.ObsFrames.of(entrance, bottom)
-        self._mod_entrance_quat = matrix_to_quat(entrance[:, :3, :3])
+        self.module_frames = T.ObsFrames.of(entrance, bottom)
+        self.module_entrance_quat = matrix_to_quat(entrance[:, :3, :3])
         nv = max(len(a.peg.vertices) for a in m_assets)
         # vertices padded to a common count by repeating the first (same min/any results)
         verts = [a.peg.vertices for a in m_assets]
@@ -166,7 +153,7 @@ class PegInHoleVecEnv:
         )
         # a point below the surface within this distance of the hole axis is in the hole
         radius = [np.linalg.norm(a.peg.vertices[:, :2], axis=1).max() for a in m_assets]
-        self._mod = {
+        self.module_tables = {
             "entrance": entrance,
             "bottom": bottom,
             "entrance_inv": T.inverse(entrance),
@@ -214,24 +201,24 @@ class PegInHoleVecEnv:
         self._step_params = K.StepParams.of(cfg)
         self._no_noise = np.zeros((n, 6), dtype=np.float32)
         self._live: np.ndarray | None = None
-        self.parks_finished = bool(getattr(self.sim, "skips_idle", False))
-        """Whether set_live parks envs (MuJoCo's BatchSim) or is ignored (other engines)."""
+        self.parks_finished = self.sim.parks_idle
+        """Whether set_live parks envs (an engine that skips idle envs) or is ignored."""
 
     # ------------------------------------------------------------------ helpers
 
     def _use_modules(self) -> None:
         """Per-env constants from the per-module ones, for the envs' current modules."""
-        rows = self._mod_row[self.env_module]
-        self.entrance = self._mod["entrance"][rows]
-        self.bottom = self._mod["bottom"][rows]
-        self.entrance_inv = self._mod["entrance_inv"][rows]
-        self.bottom_inv = self._mod["bottom_inv"][rows]
-        self.peg_vertices = self._mod["peg_vertices"][rows]
-        self.peg_reach = self._mod["peg_reach"][rows]
-        self.hole_radius = self._mod["hole_radius"][rows]
-        self._frames = self._mod_frames[rows]
+        rows = self.module_row[self.env_module]
+        self.entrance = self.module_tables["entrance"][rows]
+        self.bottom = self.module_tables["bottom"][rows]
+        self.entrance_inv = self.module_tables["entrance_inv"][rows]
+        self.bottom_inv = self.module_tables["bottom_inv"][rows]
+        self.peg_vertices = self.module_tables["peg_vertices"][rows]
+        self.peg_reach = self.module_tables["peg_reach"][rows]
+        self.hole_radius = self.module_tables["hole_radius"][rows]
+        self._frames = self.module_frames[rows]
         self._kframes = self._kernel_frames(self._frames, self.bottom)
-        self._entrance_quat = self._mod_entrance_quat[rows]
+        self._entrance_quat = self.module_entrance_quat[rows]
         # Actions are velocities in the entrance frame. A Table I entrance is the module's
         # axes, so its actions pass as they are (bit for bit); an assembly step's entrance
         # may be turned (the bolt goes in along -x), so an agent trained on Table I inserts
@@ -268,12 +255,12 @@ class PegInHoleVecEnv:
             reach=self.peg_reach,
         )
 
-    def _rotate(self, idx: np.ndarray) -> None:
+    def rotate_envs(self, idx: np.ndarray) -> None:
         """Envs idx hand their modules to the back of the queue and take the front ones."""
         replay = self.module_replay
         for e in idx.tolist():
-            self._queue.append(int(self.env_module[e]))
-            k = self._queue.pop(0 if replay is None else replay.pick(self.rng, self._queue))
+            self.module_queue.append(int(self.env_module[e]))
+            k = self.module_queue.pop(0 if replay is None else replay.pick(self.rng, self.module_queue))
             self.env_module[e] = k
             self.sim.set_module(e, self.module_ids[k])
         self._use_modules()
@@ -316,7 +303,7 @@ class PegInHoleVecEnv:
         if len(idx) == 0:
             return
         if self.rotate_modules:
-            self._rotate(idx)
+            self.rotate_envs(idx)
         cfg = self.cfg
         pos, quat = T.sample_spawn(
             self.rng,
@@ -352,8 +339,8 @@ class PegInHoleVecEnv:
         rotating env; others never change modules)."""
         if not self.rotate_modules:
             return
-        first, queue = self._first_assignment
-        self._queue = list(queue)
+        first, queue = self.first_assignment
+        self.module_queue = list(queue)
         for e, k in enumerate(first.tolist()):
             if self.env_module[e] != k:
                 self.env_module[e] = k
@@ -497,8 +484,10 @@ class PegInHoleVecEnv:
         """Everything needed to continue identically (rl/vec_env.py's StatefulVecEnv):
         physics, per-env contact draws, episode bookkeeping, RNG, counters. (MuJoCo's solver
         warm start is not state here: every control step starts it cold.)"""
-        if self.engine != "mujoco":
-            raise ValueError(f"engine = {self.engine!r}: saving the env's state is MuJoCo's only")
+        if not self.stateful:
+            raise ValueError(
+                f"engine = {self.engine!r}: saving the env's state is MuJoCo's only"
+            )
         friction, solref = self.sim.contact_params()
         return {
             "shard_state": self.sim.shard_state.copy(),
@@ -513,7 +502,7 @@ class PegInHoleVecEnv:
             "global_step": int(self.global_step),
             "unstable_count": int(self.unstable_count),
             "env_module": self.env_module.copy(),
-            "queue": np.array(self._queue, dtype=np.int64),
+            "queue": np.array(self.module_queue, dtype=np.int64),
             # the envs set_live parked (an evaluation's tail): restored as they are, not parked
             # again, so that a resumed evaluation steps exactly as an uncut one
             **({} if self._live is None else {"live": self._live.copy()}),
@@ -558,7 +547,7 @@ class PegInHoleVecEnv:
                 "env with the same dataset, num_envs, seed and module rotation"
             )
         if self.rotate_modules:
-            self._queue = np.asarray(state["queue"], dtype=np.int64).tolist()
+            self.module_queue = np.asarray(state["queue"], dtype=np.int64).tolist()
             for e, k in enumerate(env_module.tolist()):
                 self.sim.set_module(e, self.module_ids[k])
             self.env_module[:] = env_module
@@ -615,7 +604,7 @@ def make_train_env(
     seed: int,
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
-    engine: str = "mujoco",
+    engine: str = DEFAULT_ENGINE,
     curriculum_success: float | None = None,
     module_replay: float | None = None,
 ) -> PegInHoleVecEnv:
@@ -624,7 +613,7 @@ def make_train_env(
     paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
-    simulated with the physics its files carry). engine: one of ENGINES (physx, the referee,
+    simulated with the physics its files carry). engine: a registered engine's name (physx, the referee,
     serves one env per module, so num_envs must cover the dataset's modules; for training
     on mujoco-warp the command line takes sim/engines/warp/env.py's env, the task on the device)."""
     root, config = train_config(
@@ -659,7 +648,7 @@ def make_eval_env(
     noise_scale: float = 1.0,
     modules: int | None = None,
     keep_physics: bool = False,
-    engine: str = "mujoco",
+    engine: str = DEFAULT_ENGINE,
     physx: PhysxConfig | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
@@ -669,7 +658,7 @@ def make_eval_env(
     paper's). The env's `protocol` dict names the dataset (folder and content hash), the
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
-    keep_physics: as for make_train_env. engine: one of ENGINES (physx with the PhysX
+    keep_physics: as for make_train_env. engine: a registered engine's name (physx with the PhysX
     settings `physx`)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
@@ -704,7 +693,5 @@ def make_eval_env(
     }
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
-    if engine == "physx":
-        env.protocol["timestep"] = env.sim.physx.timestep
-        env.protocol["physx"] = asdict(env.sim.physx)
+    env.protocol.update(env.sim.protocol())  # the engine's own settings, if any
     return env

@@ -193,24 +193,9 @@ def private_imports(modules: dict[str, Path] | None = None) -> list[str]:
     return sorted(found)
 
 
-PRIVATE_IMPORTS_ALLOWED = {
-    # assetgen/ and sim/ take these across their own packages, to be made public there
-    "assetgen.collision.pieces -> assetgen.checks.module_checks._distance",
-    "assetgen.collision.pieces -> assetgen.checks.module_checks._fcl_object",
-    "assetgen.collision.pieces -> assetgen.checks.module_checks._swept_hull",
-    "sim.bench.stress_warp -> sim.engines.warp.batch._warp",
-    # the --sim helper stays in rl/commands.py until sim/engines/ holds the engines' registry
-    "evaluation.command -> rl.commands._engine_kwargs",
-}
-"""The private names a module of another package still takes, each to be made public (or
-replaced) by the package that defines it; none may be added."""
-
-
 def test_no_module_takes_a_private_name_of_another_package():
-    found = set(private_imports())
-    assert found <= PRIVATE_IMPORTS_ALLOWED, "\n".join(sorted(found - PRIVATE_IMPORTS_ALLOWED))
-    # an entry that no longer occurs leaves the list with it
-    assert PRIVATE_IMPORTS_ALLOWED <= found, sorted(PRIVATE_IMPORTS_ALLOWED - found)
+    """A helper shared across packages is public, documented where it lives."""
+    assert private_imports() == []
 
 
 def test_private_imports_are_found(tmp_path, monkeypatch):

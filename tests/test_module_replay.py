@@ -51,8 +51,8 @@ def test_the_rotating_env_takes_the_failing_module_next_and_resumes_its_scores()
     replay = env.module_replay
     replay.floor = 1e-12
     replay.failure[:] = 0.0
-    target = env._queue[-1]  # the last in line: in turn it would come after two others
-    assert env._queue[0] != target
+    target = env.module_queue[-1]  # the last in line: in turn it would come after two others
+    assert env.module_queue[0] != target
     replay.failure[target] = 1.0
     env.set_peg_poses(np.array([0]), env.bottom[[0]])  # on its seat: succeeds at once
     _, _, term, _, info = env.step(np.zeros((1, 6)))

@@ -127,7 +127,7 @@ def test_physx_settings_are_checked() -> None:
     with pytest.raises(ValueError, match="rest_offset"):
         PhysxConfig(rest_offset=0.003).validate(0.02)
     assert PhysxConfig().substeps(0.02) == 20
-    with pytest.raises(ValueError, match="engine = 'bullet'"):
+    with pytest.raises(ValueError, match="engine 'bullet' is not registered"):
         PegInHoleVecEnv(load_dataset(_dataset()), 3, _quiet(), engine="bullet")
     env = PegInHoleVecEnv(load_dataset(_dataset()), 3, _quiet(), engine="physx")
     with pytest.raises(ValueError, match="saving the env's state is MuJoCo's only"):
@@ -240,16 +240,16 @@ def test_the_packed_state_is_what_each_body_says() -> None:
 def test_bench_sim_runs_on_physx() -> None:
     """`assetgen bench sim --sim physx`: the env's rate next to the PhysX scene's own control
     steps, one env per module of the first `envs`."""
-    from sim.bench.throughput import bench_physx
+    from sim.bench.throughput import bench_engine
 
-    res = bench_physx(_dataset(), envs=2, steps=4, rounds=2)
+    res = bench_engine(_dataset(), envs=2, steps=4, rounds=2, engine="physx")
     assert res["engine"] == "physx" and res["envs"] == res["modules"] == 2
     assert res["steps"] == 4 and res["timestep"] == PhysxConfig().timestep
     assert res["env_steps_per_s"] > 0 and res["rollout_steps_per_s"] > 0
     # 20 physics steps per 20 ms control step at 1 ms
     assert res["physics_steps_per_s"] == pytest.approx(res["rollout_steps_per_s"] * 20)
     with pytest.raises(ValueError, match="envs = 0"):
-        bench_physx(_dataset(), envs=0)
+        bench_engine(_dataset(), envs=0, engine="physx")
 
 
 def test_train_runs_on_physx_from_the_command_line(tmp_path: Path) -> None:

@@ -21,10 +21,10 @@ from sim.assets.loading import load_dataset
 from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
 from sim.task.expert import DIRECT, expert_action
-from sim.engines.warp.batch import warp_modules
+from sim.engines.warp.batch import load_warp
 
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
-warp_modules()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
+load_warp()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
 
 
 @functools.cache
@@ -141,7 +141,7 @@ def test_what_changes_between_steps_reaches_the_device() -> None:
     friction = sim.model.geom_friction.numpy()
     assert friction[1, g, 0] == pytest.approx(0.37)
     np.testing.assert_array_equal(np.delete(friction[1], g, 0), np.delete(before[1], g, 0))
-    want = sim._per_module[mods[2].id]
+    want = sim.per_module[mods[2].id]
     np.testing.assert_array_equal(sim.model.geom_dataid.numpy()[0], want["geom_dataid"])
     np.testing.assert_allclose(sim.model.geom_pos.numpy()[0], want["geom_pos"], atol=1e-7)
     np.testing.assert_allclose(
@@ -165,13 +165,6 @@ def test_a_world_out_of_contact_room_is_refused_not_truncated() -> None:
     )
     with pytest.raises(RuntimeError, match="larger nconmax / njmax"):
         sim.step(np.zeros((1, 6)))
-
-
-def test_the_sim_flag_offers_every_engine() -> None:
-    from rl.commands import SIM_CHOICES
-    from sim.env import ENGINES
-
-    assert SIM_CHOICES == ENGINES
 
 
 def test_a_missing_warp_extra_is_named_in_one_line() -> None:

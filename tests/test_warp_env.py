@@ -85,14 +85,14 @@ def test_modules_rotate_as_in_the_host_env() -> None:
     rng = np.random.default_rng(0)
     for _ in range(12):
         mask = rng.random(3) < 0.6
-        dev._rotate(torch.as_tensor(mask))
-        host._rotate(np.flatnonzero(mask))
+        dev.rotate_envs(torch.as_tensor(mask))
+        host.rotate_envs(np.flatnonzero(mask))
         assert dev.env_module.tolist() == host.env_module.tolist()
-        assert dev._queue.tolist() == host._queue
+        assert dev.module_queue.tolist() == host.module_queue
     dev._use_modules(torch.ones(3, dtype=torch.bool))
     sim = dev.sim
     for e, k in enumerate(dev.env_module.tolist()):
-        want = sim._per_module[dev.module_ids[k]]
+        want = sim.per_module[dev.module_ids[k]]
         np.testing.assert_array_equal(dev._fields["geom_dataid"][e].numpy(), want["geom_dataid"])
         np.testing.assert_allclose(dev._fields["geom_pos"][e].numpy(), want["geom_pos"], atol=1e-7)
         pos, _mat = sim._slot_pose[dev.module_ids[k]]

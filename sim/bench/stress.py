@@ -49,6 +49,7 @@ from assetgen.core.rotations import matrix_to_quat, quat_to_matrix, rotvec_to_qu
 from sim.assets.loading import ModuleAsset
 from sim.task.config import PhysicsConfig, TaskConfig
 from sim.engines.mujoco.scene import build_spec
+from sim.engines.registry import get_engine
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -463,7 +464,7 @@ def run_module(
             skip_checks=True,
         )
         lin = 1 + model.nq + vadr
-        records += _figures(
+        records += run_figures(
             group,
             state[:, :, 1 + qadr : 4 + qadr],
             state[:, :, 4 + qadr : 8 + qadr],
@@ -478,7 +479,7 @@ def run_module(
     return [{"module": asset.id, **r} for r in records]
 
 
-def _figures(
+def run_figures(
     runs: list[Run],
     pos: np.ndarray,
     quat: np.ndarray,
@@ -709,17 +710,27 @@ def format_summary(s: dict) -> list[tuple[str, str]]:
     return rows
 
 
-ENGINE_LABELS = {"physx": "PhysX", "mujoco-warp": "MuJoCo Warp"}
-"""How the summary names the engines other than MuJoCo on the CPU."""
+def stress_on_mujoco(
+    assets: list[ModuleAsset],
+    cfg: StressConfig,
+    task: TaskConfig,
+    settings: PhysicsConfig | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    *,
+    mjcf: list[str] | None = None,
+    nthread: int | None = None,
+) -> list[dict]:
+    """`stress` in the registry's runner signature (sim/engines/registry.py): the physics is
+    the task's (settings: unused)."""
+    return stress(assets, task.physics, cfg, mjcf=mjcf, nthread=nthread, progress=progress)
 
 
-def main(args, physx_stress: Callable | None = None, warp_stress: Callable | None = None) -> int:
+def main(args) -> int:
     """`assetgen bench contacts DATASET`: args.dataset, args.limit, args.physics_version (an
     earlier version's settings; default: the project's for the dataset's clearance), args.set
-    (PhysicsConfig overrides on top), args.source (sim or mjcf), args.cases, args.threads,
-    args.json (a file), args.sim (mujoco; physx with `physx_stress`, mujoco-warp with
-    `warp_stress`: the other engines' runners, passed in so that this module does not import
-    its own users)."""
+    (overrides of the engine's settings: PhysicsConfig, or the engine's own), args.source (sim
+    or mjcf), args.cases, args.threads, args.json (a file), args.sim (a registered engine,
+    whose runner sim/engines/registry.py names)."""
     import sys
     from dataclasses import replace
 
@@ -758,9 +769,11 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
     assets = load_dataset(root, ids)
     # the dataset's clearance sets the step (physics_for), unless an older version is asked
     base = base or physics_for(min(a.clearance for a in assets))
-    engine = getattr(args, "sim", None) or "mujoco"
-    # --set: the engine's settings (PhysicsConfig for MuJoCo, PhysxConfig for PhysX)
-    on_mujoco = [] if engine == "physx" else args.set or []
+    spec = get_engine(getattr(args, "sim", None))
+    settings_class = spec.load("settings")
+    on_physics = settings_class is PhysicsConfig  # else the engine has settings of its own
+    # --set: the engine's settings (PhysicsConfig, or the engine's own)
+    on_mujoco = (args.set or []) if on_physics else []
     physics = replace(base, **parse_overrides(PhysicsConfig, on_mujoco)).validate()
     mjcf = None
     if args.source == "mjcf":
@@ -770,26 +783,17 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
     def progress(done: int, total: int) -> None:
         print(f"\r{done}/{total} modules", end="", file=sys.stderr, flush=True)
 
-    if engine == "physx" and (mjcf is not None or version is not None):
-        raise ValueError("--sim physx takes its settings from PhysxConfig (--set FIELD=VALUE): "
-                         "drop --source and --physics-version")  # fmt: skip
-    if engine == "mujoco-warp" and mjcf is not None:
-        raise ValueError("--sim mujoco-warp runs the simulator's models: drop --source mjcf")
+    if not on_physics and (mjcf is not None or version is not None):
+        raise ValueError(f"--sim {spec.name} takes its settings from {settings_class.__name__} "
+                         "(--set FIELD=VALUE): drop --source and --physics-version")  # fmt: skip
+    if mjcf is not None and not spec.reads_mjcf:
+        raise ValueError(f"--sim {spec.name} runs the simulator's models: drop --source mjcf")
+    settings = physics if on_physics else settings_class(**parse_overrides(settings_class,
+                                                                            args.set or []))
+    files = {"mjcf": mjcf, "nthread": args.threads} if spec.reads_mjcf else {}
     t0 = time.perf_counter()
-    if engine == "mujoco-warp":
-        if warp_stress is None:
-            raise ValueError("--sim mujoco-warp: pass sim.bench.stress_warp.stress_warp")
-        records = warp_stress(assets, cfg, TaskConfig(physics=physics), progress=progress)
-    elif engine == "physx":
-        from sim.engines.physx.config import PhysxConfig
-
-        if physx_stress is None:
-            raise ValueError("--sim physx: pass sim.bench.stress_physx.stress_physx")
-        physx = PhysxConfig(**parse_overrides(PhysxConfig, args.set or []))
-        task = TaskConfig(physics=physics)
-        records = physx_stress(assets, cfg, task, physx, progress=progress)
-    else:
-        records = stress(assets, physics, cfg, mjcf=mjcf, nthread=args.threads, progress=progress)
+    records = spec.load("stress")(assets, cfg, TaskConfig(physics=physics), settings,
+                                  progress=progress, **files)  # fmt: skip
     print(file=sys.stderr)
     seconds = time.perf_counter() - t0
     clearances = sorted({a.clearance for a in assets})
@@ -798,7 +802,7 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
     for s in summaries:
         print(
             f"{root}: {s['modules']} modules, clearance {s['clearance'] * 1e3:g} mm, "
-            f"{ENGINE_LABELS.get(engine, 'exported files' if mjcf else 'simulator models')}"
+            f"{'exported files' if mjcf else 'simulator models' if spec.reads_mjcf else spec.label}"
             f", {seconds:.0f} s"
         )
         rows = format_summary(s)
@@ -813,12 +817,8 @@ def main(args, physx_stress: Callable | None = None, warp_stress: Callable | Non
             {
                 "dataset": recorded_path(root),
                 "source": args.source,
-                "engine": engine,
-                "physics": asdict(physx)
-                if engine == "physx"
-                else asdict(physics)
-                if mjcf is None
-                else "the exported files'",
+                "engine": spec.name,
+                "physics": asdict(settings) if mjcf is None else "the exported files'",
                 "physics_version": version or PHYSICS_VERSION,
                 "stress": asdict(cfg),
                 "seconds": seconds,

@@ -1,7 +1,7 @@
 """The contact stress benchmark's runs (sim/bench/stress.py) on PhysX, the referee engine.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`contact_stress._figures`), stepped in PhysX (sim/engines/physx/batch.py): `batch` runs of a
+figures (`contact_stress.run_figures`), stepped in PhysX (sim/engines/physx/batch.py): `batch` runs of a
 module at a time, one env each, the drives' targets set before every physics step, the state
 and the deepest contact penetration read after it. MuJoCo's contact sensor gives the distance
 of its contacts; PhysX's contact points give their separation, the same quantity.
@@ -17,7 +17,7 @@ import numpy as np
 
 from sim.assets.loading import ModuleAsset
 from sim.task.config import TaskConfig
-from sim.bench.stress import Run, StressConfig, _figures, module_runs, press_as_force
+from sim.bench.stress import Run, StressConfig, run_figures, module_runs, press_as_force
 from sim.engines.physx.config import PhysxConfig
 
 
@@ -79,7 +79,7 @@ def _run_batch(sim, runs: list[Run], nstep: int, geo, cfg: StressConfig, h: floa
         # the sensor's layout: (found, distance)
         sensor[:, t, 0] = pen > 0
         sensor[:, t, 1] = -pen
-    return _figures(runs, pos, quat, vel, ang, sensor, geo, cfg, h, kv)
+    return run_figures(runs, pos, quat, vel, ang, sensor, geo, cfg, h, kv)
 
 
 def task_friction(sim) -> float:

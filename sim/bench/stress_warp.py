@@ -1,7 +1,7 @@
 """The contact stress benchmark's runs (sim/bench/stress.py) on MuJoCo Warp.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`contact_stress._figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py): every run of
+figures (`contact_stress.run_figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py): every run of
 every module is a world of one model, all stepped together for the longest run's length
 (each run's figures read its own first steps). Each physics step's commands come from a
 table on the device, and the peg's state and its deepest contact are recorded there; the
@@ -21,8 +21,8 @@ import numpy as np
 
 from sim.assets.loading import ModuleAsset
 from sim.task.config import TaskConfig
-from sim.bench.stress import Run, StressConfig, _figures, module_runs, press_as_force
-from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, warp_modules
+from sim.bench.stress import Run, StressConfig, run_figures, module_runs, press_as_force
+from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, load_warp
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
 
@@ -32,7 +32,7 @@ def _kernels():
     """Warp kernels: the commands of step t into every world, and the record of step t
     (state, and the deepest contact of each world: MuJoCo's contact sensor, reduced to the
     contact of least distance)."""
-    wp, _ = warp_modules()
+    wp, _ = load_warp()
 
     @wp.kernel
     def set_ctrl(table: wp.array3d(dtype=float), t: int, ctrl: wp.array2d(dtype=float)):
@@ -71,15 +71,17 @@ def stress_warp(
     assets: list[ModuleAsset],
     cfg: StressConfig,
     task: TaskConfig,
+    settings: object = None,
     progress: Callable[[int, int], None] | None = None,
     device: str | None = None,
     nconmax: int = NCONMAX,
     njmax: int = NJMAX,
 ) -> list[dict]:
     """Every run of every module on MuJoCo Warp, one world a run; one record (its figures)
-    a run, as sim.bench.stress.stress gives them. device: a Warp device (None: the GPU if
-    there is one)."""
-    wp, mjw = warp_modules()
+    a run, as sim.bench.stress.stress gives them. settings: unused (MuJoCo Warp takes the
+    task's physics; the registry's runners share one signature). device: a Warp device
+    (None: the GPU if there is one)."""
+    wp, mjw = load_warp()
     plan = [(a, *module_runs(a, cfg)) for a in assets]
     worlds = [a for a, runs, _ in plan for _ in runs]
     sim = WarpBatchSim(worlds, task, device=device, nconmax=nconmax, njmax=njmax,
@@ -88,7 +90,7 @@ def stress_warp(
     g = sim.peg_geom
     jobs: list[tuple[ModuleAsset, list[Run], object, float]] = []
     for a, module_runs_, geo in plan:
-        kv = float(sim._per_module[a.id]["actuator_gainprm"][0, 0])
+        kv = float(sim.per_module[a.id]["actuator_gainprm"][0, 0])
         press_as_force(module_runs_, cfg, kv)
         jobs.append((a, module_runs_, geo, kv))
     runs = [r for _a, rs, _g, _k in jobs for r in rs]
@@ -131,7 +133,7 @@ def stress_warp(
             m, w = round(r.duration / h), slice(w0, w0 + 1)
             s = state[w, :m]
             pos, quat, vel, ang = s[..., :3], s[..., 3:7], s[..., 7:10], s[..., 10:13]
-            figures = _figures([r], pos, quat, vel, ang, sensor[w, :m], geo, cfg, h, kv)
+            figures = run_figures([r], pos, quat, vel, ang, sensor[w, :m], geo, cfg, h, kv)
             records += [{"module": a.id, **rec} for rec in figures]
             w0 += 1
         if progress is not None:

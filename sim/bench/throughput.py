@@ -1,9 +1,9 @@
-"""Throughput of the vector env next to raw `mujoco.rollout` on the same models (or, on
-PhysX, next to the referee's own control steps without the env layer).
+"""Throughput of the vector env on any registered engine, next to the engine's own control
+steps without the env layer (on MuJoCo, raw `mujoco.rollout` of the same models).
 
 Wiring for the CLI: `bench_main(args)` for
     assetgen bench sim [--envs 1024] [--steps 200] [--dataset test] [--threads N]
-                       [--sim mujoco|physx] [--json]
+                       [--sim ENGINE] [--json]
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mujoco import rollout
 
 from sim.task.config import EVAL_CONFIG, TaskConfig
+from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.env import PegInHoleVecEnv
 
 
@@ -68,184 +68,87 @@ def _rates(n: int, substeps: int, wall: dict, cpu: dict) -> dict[str, float]:
     }
 
 
-def bench_sim(
+def bench_engine(
     dataset: str | Path,
     envs: int = 1024,
     steps: int = 200,
     *,
+    engine: str = DEFAULT_ENGINE,
     config: TaskConfig = EVAL_CONFIG,
     nthread: int | None = None,
     shard_size: int = 8,
     rounds: int = 10,
     seed: int = 0,
+    device_env: bool = True,
 ) -> dict:
-    """Env steps/s with random actions at `envs` envs next to raw `mujoco.rollout` steps/s
-    on the same models for the same physics steps (no env layer: no observation, reward,
-    noise or reset), taken in `rounds` interleaved rounds (a busy neighbour hits both the
-    same). Each raw round starts from the env's current states. Returns env_steps_per_s,
-    rollout_steps_per_s (env-step equivalents), physics_steps_per_s, env_over_rollout, the
-    same per CPU-second (*_per_cpu_s: all threads' time; steadier on a shared machine),
-    and the setup."""
-    t0 = time.perf_counter()
-    env = PegInHoleVecEnv(
-        dataset,
-        envs,
-        config,
-        nthread=nthread,
-        assignment_seed=seed,
-        shard_size=shard_size,
-    )
-    build_s = time.perf_counter() - t0
-    sim = env.sim
-    substeps = env.cfg.physics.substeps
-    scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
-    actions = _random_actions(env, steps, rounds, seed)
-    controls = [sim.shard_control(a * scale).copy() for a in actions]
-    out = np.empty((len(sim.models), substeps, sim.shard_state.shape[1]))
-
-    def env_round() -> None:
-        for a in actions:
-            env.step(a)
-
-    with rollout.Rollout(nthread=sim.nthread if sim.nthread > 1 else 0) as pool:
-
-        def raw_round(state: np.ndarray) -> None:  # from the env's current states
-            for u in controls:
-                pool.rollout(
-                    sim.models, sim.datas, state, u, nstep=substeps, state=out, skip_checks=True
-                )
-                state = out[:, -1].copy()
-
-        wall, cpu = _interleaved(rounds, env_round, raw_round, sim.shard_state.copy)
-    env.close()
-    n = envs * len(actions) * rounds
-    return {
-        "envs": envs,
-        "steps": len(actions) * rounds,
-        "threads": sim.nthread,
-        "shard_size": sim.shard_size,
-        "modules": len(env.module_ids),
-        "build_s": build_s,
-        **_rates(n, substeps, wall, cpu),
-    }
-
-
-def bench_physx(
-    dataset: str | Path,
-    envs: int = 1024,
-    steps: int = 200,
-    *,
-    config: TaskConfig = EVAL_CONFIG,
-    rounds: int = 10,
-    seed: int = 0,
-) -> dict:
-    """bench_sim on PhysX (the referee): one env per module of the dataset's first `envs`,
-    env steps/s with random actions next to the same control steps of the PhysX scene alone
-    (drive targets, the physics steps, the state read; no observation, reward, noise or
-    reset), in `rounds` interleaved rounds. The same keys as bench_sim's where they apply;
-    the raw figures are PhysX's."""
+    """Env steps/s of the vector env on `engine` with random actions at `envs` envs, next to
+    the engine's own control steps without the env layer (raw: no observation, reward, noise
+    or reset; on MuJoCo, `mujoco.rollout` of the same models from the env's states), taken in
+    `rounds` interleaved rounds (a busy neighbour hits both the same). An engine that serves
+    one env per module gets the dataset's first `envs` modules. Returns env_steps_per_s,
+    rollout_steps_per_s (raw, env-step equivalents), physics_steps_per_s, env_over_rollout,
+    the same per CPU-second (*_per_cpu_s: all threads' time; steadier on a shared machine),
+    the warm-up's seconds (on a device, the kernels' compilation), the setup and the engine's
+    own figures. With a device env (sim/engines/registry.py) and `device_env`, the direct
+    expert's rate and bench_device_env's figures too."""
     from assetgen.dataset.reader import Dataset
     from sim.assets.loading import load_dataset
 
+    spec = get_engine(engine)
     if envs < 1:
         raise ValueError(f"envs = {envs}: give at least 1")
     t0 = time.perf_counter()
-    ids = Dataset(dataset).ids[:envs]
-    env = PegInHoleVecEnv(load_dataset(dataset, ids), len(ids), config, assignment_seed=seed,
-                          engine="physx")  # fmt: skip
+    if spec.one_env_per_module:
+        ids = Dataset(dataset).ids[:envs]
+        env = PegInHoleVecEnv(load_dataset(dataset, ids), len(ids), config, assignment_seed=seed,
+                              engine=spec.name)  # fmt: skip
+    else:
+        env = PegInHoleVecEnv(dataset, envs, config, nthread=nthread, assignment_seed=seed,
+                              shard_size=shard_size, engine=spec.name)  # fmt: skip
     build_s = time.perf_counter() - t0
+    sim = env.sim
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
+    t0 = time.perf_counter()
     actions = _random_actions(env, steps, rounds, seed)
+    warmup_s = time.perf_counter() - t0
+    raw_round = sim.raw_round([a * scale for a in actions])
 
     def env_round() -> None:
         for a in actions:
             env.step(a)
 
-    def raw_round(_: Any) -> None:
-        for a in actions:
-            env.sim.step(a * scale)
-
-    wall, cpu = _interleaved(rounds, env_round, raw_round)
-    env.close()
+    wall, cpu = _interleaved(rounds, env_round, lambda _: raw_round())
     n = env.num_envs * len(actions) * rounds
-    return {
-        "engine": "physx",
+    res = {
+        "engine": spec.name,
         "envs": env.num_envs,
         "steps": len(actions) * rounds,
         "threads": 1,
-        "modules": env.num_envs,
-        "timestep": env.sim.physx.timestep,
-        "build_s": build_s,
-        **_rates(n, env.sim.substeps, wall, cpu),
-    }
-
-
-def bench_warp(
-    dataset: str | Path,
-    envs: int = 1024,
-    steps: int = 200,
-    *,
-    config: TaskConfig = EVAL_CONFIG,
-    rounds: int = 10,
-    seed: int = 0,
-    device_env: bool = True,
-) -> dict:
-    """bench_sim on MuJoCo Warp: env steps/s at `envs` envs (one world each; with fewer envs
-    than modules the envs take the modules in turns, as in training), with random actions and
-    with the direct scripted expert, next to the simulator's own control steps without the
-    env layer (raw: the commands and states up, the substeps on the device, the states
-    back). The same keys as bench_sim's where they apply, and the device memory in use;
-    with `device_env`, bench_warp_device's figures too (the env on the device)."""
-    from sim.task.expert import direct_expert_action
-
-    t0 = time.perf_counter()
-    env = PegInHoleVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True,
-                          engine="mujoco-warp")  # fmt: skip
-    sim = env.sim
-    build_s = time.perf_counter() - t0
-    scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
-    t0 = time.perf_counter()
-    actions = _random_actions(env, steps, rounds, seed)  # the warm-up compiles the kernels
-    compile_s = time.perf_counter() - t0
-
-    def env_round() -> None:
-        for a in actions:
-            env.step(a)
-
-    def raw_round(_: Any) -> None:
-        for a in actions:
-            sim.step(a * scale)
-
-    wall, cpu = _interleaved(rounds, env_round, raw_round)
-    n = envs * len(actions) * rounds
-    res = {
-        "engine": "mujoco-warp",
-        "device": sim.device,
-        "envs": envs,
-        "threads": 1,
-        "steps": len(actions) * rounds,
         "modules": len(env.module_ids),
-        "timestep": env.cfg.physics.timestep,
-        "substeps": env.cfg.physics.substeps,
+        "substeps": sim.substeps,
         "build_s": build_s,
-        "compile_s": compile_s,
-        **_rates(n, env.cfg.physics.substeps, wall, cpu),
+        "warmup_s": warmup_s,
+        **sim.bench_figures(),
+        **_rates(n, sim.substeps, wall, cpu),
     }
-    k = len(actions) * rounds
-    # the direct expert, observation to action on the host
-    obs = env.reset(seed=seed)
-    t = time.perf_counter()
-    for _ in range(k):
-        obs = env.step(direct_expert_action(obs))[0]
-    res["expert_env_steps_per_s"] = envs * k / (time.perf_counter() - t)
-    res["device_memory_mb"] = sim.device_memory_mb()
-    env.close()
-    if device_env:
-        res |= bench_warp_device(dataset, envs, k, config=config, seed=seed)
+    if spec.device_env is not None and device_env:
+        from sim.task.expert import direct_expert_action
+
+        k = len(actions) * rounds
+        obs = env.reset(seed=seed)  # the direct expert, observation to action on the host
+        t = time.perf_counter()
+        for _ in range(k):
+            obs = env.step(direct_expert_action(obs))[0]
+        res["expert_env_steps_per_s"] = env.num_envs * k / (time.perf_counter() - t)
+        env.close()
+        res |= bench_device_env(spec.name, dataset, envs, k, config=config, seed=seed)
+    else:
+        env.close()
     return res
 
 
-def bench_warp_device(
+def bench_device_env(
+    engine: str,
     dataset: str | Path,
     envs: int,
     steps: int,
@@ -254,16 +157,15 @@ def bench_warp_device(
     seed: int = 0,
     hidden: tuple[int, ...] = (512, 512),
 ) -> dict:
-    """The env on the device (sim/engines/warp/env.py) at `envs` envs over `steps` control steps:
+    """`engine`'s device env (sim/engines/registry.py) at `envs` envs over `steps` control steps:
     env steps/s with random actions drawn on the device, and with a policy network's
     forward pass on the device in the loop (an MLP of `hidden` ELU layers, the `paper`
     preset's, observation to action as a PPO rollout takes them: no learner updates)."""
     import torch
 
-    from sim.engines.warp.env import WarpTorchVecEnv
-
     t0 = time.perf_counter()
-    env = WarpTorchVecEnv(dataset, envs, config, assignment_seed=seed, rotate_modules=True)
+    make = get_engine(engine).load("device_env")
+    env = make(dataset, envs, config, assignment_seed=seed, rotate_modules=True)
     build_s = time.perf_counter() - t0
     dev = env.device
     gen = torch.Generator(device=dev).manual_seed(seed)
@@ -302,7 +204,7 @@ def bench_warp_device(
         "device_env_build_s": build_s,
         "device_env_steps_per_s": envs * steps / random_s,
         "device_policy_env_steps_per_s": envs * steps / policy_s,
-        "device_env_memory_mb": env.sim.device_memory_mb(),
+        **{f"device_env_{k}": v for k, v in env.sim.bench_figures().items() if k.endswith("_mb")},
     }
     env.close()
     return out
@@ -314,21 +216,15 @@ def bench_main(args: argparse.Namespace) -> int:
     from assetgen.dataset.spec import resolve
 
     root, _ = resolve(getattr(args, "dataset", None) or "test")
-    engine = getattr(args, "sim", None) or "mujoco"
-    if engine == "mujoco-warp":
-        res = bench_warp(root, getattr(args, "envs", None) or 1024,
-                         getattr(args, "steps", None) or 200)  # fmt: skip
-    elif engine == "physx":
-        res = bench_physx(root, getattr(args, "envs", None) or 1024,
-                          getattr(args, "steps", None) or 200)  # fmt: skip
-    else:
-        res = bench_sim(
-            root,
-            getattr(args, "envs", None) or 1024,
-            getattr(args, "steps", None) or 200,
-            nthread=getattr(args, "threads", None),
-            shard_size=getattr(args, "shard_size", None) or 8,
-        )
+    spec = get_engine(getattr(args, "sim", None))
+    res = bench_engine(
+        root,
+        getattr(args, "envs", None) or 1024,
+        getattr(args, "steps", None) or 200,
+        engine=spec.name,
+        nthread=getattr(args, "threads", None),
+        shard_size=getattr(args, "shard_size", None) or 8,
+    )
     if getattr(args, "json", False):
         print(json.dumps(res))
         return 0
@@ -336,12 +232,7 @@ def bench_main(args: argparse.Namespace) -> int:
         ("envs / modules / threads", f"{res['envs']} / {res['modules']} / {res['threads']}"),
         *([("envs per model (shard)", str(res["shard_size"]))] if "shard_size" in res else []),
         ("env steps/s (random actions)", f"{res['env_steps_per_s']:,.0f}"),
-        (
-            {"physx": "raw PhysX control steps/s", "mujoco-warp": "raw Warp control steps/s"}.get(
-                engine, "raw rollout steps/s"
-            ),
-            f"{res['rollout_steps_per_s']:,.0f}",
-        ),
+        (f"raw {spec.label} control steps/s", f"{res['rollout_steps_per_s']:,.0f}"),
         *[
             (label, f"{res[key]:,.0f}")
             for label, key in (
@@ -359,11 +250,7 @@ def bench_main(args: argparse.Namespace) -> int:
             f"{res['env_steps_per_cpu_s']:,.0f} / {res['rollout_steps_per_cpu_s']:,.0f}",
         ),
         ("build time", f"{res['build_s']:.1f} s"),
-        *(
-            [("kernel compile (first steps)", f"{res['compile_s']:.1f} s")]
-            if "compile_s" in res
-            else []
-        ),
+        ("warm-up (first steps; on a device, compiling)", f"{res['warmup_s']:.1f} s"),
     ]
     width = max(len(k) for k, _ in rows)
     for k, v in rows:

@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import copy
 import os
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
+from sim.engines.base import EngineOptions, EngineSim
 from sim.task import kernel as K
 from sim.assets.loading import ModuleAsset
 from sim.task.config import TaskConfig
@@ -71,36 +73,7 @@ def shard_layout(num_envs: int, shard_size: int) -> tuple[int, int]:
     return -(-num_envs // k), k
 
 
-class PegStateViews:
-    """Views of a simulator's `state` (num_envs, 14) = [time, pos (3), quat (4), qvel (6)],
-    and pegs placed at rest in it, shared by BatchSim, the PhysX referee
-    (sim/engines/physx/batch.py) and MuJoCo Warp (sim/engines/warp/batch.py)."""
-
-    state: np.ndarray
-
-    @property
-    def peg_pos(self) -> np.ndarray:
-        """(num_envs, 3) peg frame origin in the module frame, m (a view)."""
-        return self.state[:, 1:4]
-
-    @property
-    def peg_quat(self) -> np.ndarray:
-        """(num_envs, 4) peg frame orientation (w, x, y, z) in the module frame (a view)."""
-        return self.state[:, 4:8]
-
-    @property
-    def qvel(self) -> np.ndarray:
-        """(num_envs, 6) free-joint velocity (a view)."""
-        return self.state[:, 8:14]
-
-    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
-        """Place pegs `idx` at rest: pos (k, 3), quat (k, 4) in their module frames."""
-        self.state[idx, 1:4] = pos
-        self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
-        self.state[idx, 8:14] = 0.0
-
-
-class BatchSim(PegStateViews):
+class BatchSim(EngineSim):
     """`num_envs` peg-in-hole scenes; state is (num_envs, nstate) = [time, qpos(7), qvel(6)].
 
     qpos of the free joint is the peg frame's pose in the module frame: position (3),
@@ -206,6 +179,7 @@ class BatchSim(PegStateViews):
         self.state = np.zeros((n, self.nstate))
         self._ss_flat = self.shard_state.reshape(-1)  # a view: shard_state is contiguous
         self.gather()
+        self.substeps = p.substeps
         self._out = np.empty((s_count, p.substeps, nshard))
         self._ctrl = np.zeros((s_count, p.substeps, 6 * k))
         # env e = shard * k + slot: its 6 controls are entries 6e .. 6e + 5 of the shards'
@@ -282,8 +256,13 @@ class BatchSim(PegStateViews):
 
     # ------------------------------------------------------------------ stepping
 
-    skips_idle = True
+    saves_state = True
+    parks_idle = True
     """`step(velocity, live)` leaves the shards without a live env unstepped (set_live)."""
+
+    @classmethod
+    def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> BatchSim:
+        return cls(env_assets, task, options.nthread, options.shard_size, spare_assets)
 
     def step(self, velocity: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
         """Advance every env by one control step at the commanded velocity.
@@ -325,6 +304,25 @@ class BatchSim(PegStateViews):
         if busy is not None:
             unstable &= busy[self.shard_of]  # an unstepped shard's time did not advance
         return unstable
+
+    def raw_round(self, velocities: list[np.ndarray]) -> Callable[[], None]:
+        """Raw `mujoco.rollout` of the same models for the same physics steps, from the env's
+        current states, with no env layer and no layout work (the throughput bench's
+        reference)."""
+        controls = [self.shard_control(v).copy() for v in velocities]
+        out = np.empty((len(self.models), self.substeps, self.shard_state.shape[1]))
+
+        def run() -> None:
+            state = self.shard_state.copy()
+            for u in controls:
+                self._rollout.rollout(self.models, self.datas, state, u, nstep=self.substeps,
+                                      state=out, skip_checks=True)  # fmt: skip
+                state = out[:, -1].copy()
+
+        return run
+
+    def bench_figures(self) -> dict:
+        return {"threads": self.nthread, "shard_size": self.shard_size}
 
     def shard_control(self, velocity: np.ndarray) -> np.ndarray:
         """(num_envs, 6) velocities -> the shards' controls (shards, substeps, 6 x slots),

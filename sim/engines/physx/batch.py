@@ -22,14 +22,15 @@ of the peg frame's origin (module frame, 3), angular velocity (peg frame, 3)].
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 
 import numpy as np
 
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
+from sim.engines.base import EngineOptions, EngineSim
 from sim.task import kernel as K
 from sim.assets.loading import AssetError, ModuleAsset
-from sim.engines.mujoco.batch import PegStateViews
 from sim.task.config import PhysicsConfig, TaskConfig
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.physx.usd_module import UsdModule, load_usd_module
@@ -174,7 +175,7 @@ def _planes(points: np.ndarray) -> np.ndarray:
     return ConvexHull(points).equations
 
 
-class PhysxBatchSim(PegStateViews):
+class PhysxBatchSim(EngineSim):
     """`num_envs` peg-in-hole scenes in one PhysX scene; the interface of sim.engines.mujoco.batch.BatchSim
     that PegInHoleVecEnv uses for evaluation (no module rotation, no saved env state)."""
 
@@ -356,7 +357,20 @@ class PhysxBatchSim(PegStateViews):
 
     # ------------------------------------------------------------------ stepping
 
-    def step(self, velocity: np.ndarray) -> np.ndarray:
+    rotates_modules = False
+
+    @classmethod
+    def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> PhysxBatchSim:
+        return cls(env_assets, task, options.physx)
+
+    def protocol(self) -> dict:
+        """PhysX's step and settings: its timestep is the evaluation's."""
+        return {"timestep": self.physx.timestep, "physx": asdict(self.physx)}
+
+    def bench_figures(self) -> dict:
+        return {"timestep": self.physx.timestep}
+
+    def step(self, velocity: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
         """One control step at the commanded velocities (num_envs, 6): linear (m/s) and
         angular (rad/s) of the peg's bottom-face centre in the module frame. Returns the
         unstable flags (non-finite state, or a peg faster than the runaway speed)."""

@@ -35,9 +35,9 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from sim.engines.base import EngineOptions, EngineSim
 from sim.task import kernel as K
 from sim.assets.loading import AssetError, ModuleAsset
-from sim.engines.mujoco.batch import PegStateViews
 from sim.task.config import TaskConfig
 from sim.engines.mujoco.scene import build_spec, contact_solref, restitution_to_dampratio
 
@@ -57,7 +57,7 @@ NJMAX = 384
 up to 276 seen in those runs."""
 
 
-def warp_modules():
+def load_warp():
     try:
         import warp as wp
 
@@ -77,7 +77,7 @@ def warp_modules():
 @functools.cache
 def _contact_kernel():
     """A Warp kernel: world idx[i]'s peg geom gets friction[i] and solref[i]."""
-    wp, _ = warp_modules()
+    wp, _ = load_warp()
 
     @wp.kernel
     def set_peg_contact(
@@ -97,7 +97,7 @@ def _contact_kernel():
 
 def default_device() -> str:
     """cuda:0 where Warp sees a GPU, else cpu."""
-    wp, _ = warp_modules()
+    wp, _ = load_warp()
     return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
@@ -143,7 +143,7 @@ def slot_spec(asset: ModuleAsset, task: TaskConfig, slots: int) -> mujoco.MjSpec
     return spec
 
 
-class WarpBatchSim(PegStateViews):
+class WarpBatchSim(EngineSim):
     """`num_envs` peg-in-hole scenes, one MuJoCo Warp world each; the interface of
     sim.engines.mujoco.batch.BatchSim that PegInHoleVecEnv uses (module rotation included, no saved env
     state). State layout as BatchSim's: [time, pos (3), quat w x y z (4), qvel (6)].
@@ -165,13 +165,14 @@ class WarpBatchSim(PegStateViews):
         njmax: int = NJMAX,
         per_world: tuple[str, ...] = (),
     ) -> None:
-        wp, mjw = warp_modules()
+        wp, mjw = load_warp()
         if task.physics is None:
             raise ValueError("WarpBatchSim needs the task's physics (TaskConfig.physics)")
         self.task = task
+        self.substeps = task.physics.substeps
         self.num_envs = n = len(env_assets)
         self.device = device or default_device()
-        self._wp, self._mjw = wp, mjw
+        self.wp, self._mjw = wp, mjw
         pool: dict[str, ModuleAsset] = {}
         for a in list(env_assets) + list(spare_assets or ()):
             if a.peg_pieces:
@@ -235,7 +236,7 @@ class WarpBatchSim(PegStateViews):
         ]
         always = ("geom_friction", "geom_solref", *per_world)
         self._fields += [f for f in always if f not in self._fields]
-        self._per_module = {
+        self.per_module = {
             mid: {
                 f: (self._dataid[mid] if f == "geom_dataid" else np.array(getattr(m, f)))
                 for f in self._fields
@@ -259,7 +260,7 @@ class WarpBatchSim(PegStateViews):
             self.model = mjw.put_model(self.mjm, batch_sizes={f: n for f in self._fields})
             self.data = mjw.make_data(self.mjm, nworld=n, nconmax=nconmax, njmax=njmax)
         self.host = {
-            f: np.stack([self._per_module[a.id][f] for a in env_assets]) for f in self._fields
+            f: np.stack([self.per_module[a.id][f] for a in env_assets]) for f in self._fields
         }
         """Per-world values of the batched fields (host copies, uploaded when changed)."""
         self.env_module = [a.id for a in env_assets]
@@ -297,9 +298,9 @@ class WarpBatchSim(PegStateViews):
     def set_module(self, e: int, module_id: str) -> None:
         """Put env `e` on module `module_id` (one given at construction). Place the peg with
         `set_pose` and set its contact with `set_contact` next."""
-        if module_id not in self._per_module:
+        if module_id not in self.per_module:
             raise ValueError(f"module {module_id!r} was not given to this WarpBatchSim")
-        for f, v in self._per_module[module_id].items():
+        for f, v in self.per_module[module_id].items():
             self.host[f][e] = v
         self.env_module[e] = module_id
         self._moved.add(int(e))
@@ -312,13 +313,13 @@ class WarpBatchSim(PegStateViews):
     def _upload_model(self) -> None:
         """Send what changed since the last step: every world's fields at the start, the
         rows of worlds that changed module, the pegs' new contact draws (one kernel)."""
-        wp = self._wp
+        wp = self.wp
         if self._upload_all:
             worlds = list(range(self.num_envs))
             for f, v in self.host.items():
                 arr = getattr(self.model, f)
-                arr.assign(wp.array(self._cast(f, v), dtype=arr.dtype, device=self.device))
-            rows = [self._pose_rows(mid) for mid in self.env_module]
+                arr.assign(wp.array(self.cast(f, v), dtype=arr.dtype, device=self.device))
+            rows = [self.pose_rows(mid) for mid in self.env_module]
             self.data.geom_xpos.assign(np.stack([r[0] for r in rows]))
             self.data.geom_xmat.assign(np.stack([r[1] for r in rows]))
             self._upload_all = False
@@ -327,8 +328,8 @@ class WarpBatchSim(PegStateViews):
             for e in worlds:
                 for f, v in self.host.items():
                     arr = getattr(self.model, f)[e]
-                    arr.assign(wp.array(self._cast(f, v[e]), dtype=arr.dtype, device=self.device))
-                xpos, xmat = self._pose_rows(self.env_module[e])
+                    arr.assign(wp.array(self.cast(f, v[e]), dtype=arr.dtype, device=self.device))
+                xpos, xmat = self.pose_rows(self.env_module[e])
                 self.data.geom_xpos[e].assign(wp.array(xpos, dtype=wp.vec3, device=self.device))
                 self.data.geom_xmat[e].assign(wp.array(xmat, dtype=wp.mat33, device=self.device))
         contact = sorted(self._contact.difference(worlds))
@@ -352,7 +353,7 @@ class WarpBatchSim(PegStateViews):
         self._moved.clear()
         self._contact.clear()
 
-    def _pose_rows(self, module_id: str) -> tuple[np.ndarray, np.ndarray]:
+    def pose_rows(self, module_id: str) -> tuple[np.ndarray, np.ndarray]:
         """A world's geom poses (ngeom, 3) and (ngeom, 3, 3) on `module_id`: its fixed slots'
         poses, the peg's left at the origin (the step recomputes it)."""
         xpos = np.zeros((self.mjm.ngeom, 3), np.float32)
@@ -363,7 +364,7 @@ class WarpBatchSim(PegStateViews):
         return xpos, xmat
 
     @staticmethod
-    def _cast(field: str, v: np.ndarray) -> np.ndarray:
+    def cast(field: str, v: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(v, dtype=np.int32 if field == "geom_dataid" else np.float32)
 
     def _substeps(self) -> None:
@@ -381,7 +382,7 @@ class WarpBatchSim(PegStateViews):
         captured CUDA graph on a GPU: one launch; the first call compiles and captures).
         restore: puts back the state the first call's compiling pass stepped (default: the
         host's state, uploaded)."""
-        wp = self._wp
+        wp = self.wp
         with wp.ScopedDevice(self.device):
             if not self.device.startswith("cuda"):
                 self._substeps()
@@ -396,12 +397,23 @@ class WarpBatchSim(PegStateViews):
 
     def device_memory_mb(self) -> float:
         """MB of the device's memory in use (the whole device's, on a GPU; NaN on the CPU)."""
-        dev = self._wp.get_device(self.device)
+        dev = self.wp.get_device(self.device)
         if not dev.is_cuda:
             return float("nan")
         return (dev.total_memory - dev.free_memory) / 2**20
 
-    def step(self, velocity: np.ndarray) -> np.ndarray:
+    @classmethod
+    def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> WarpBatchSim:
+        return cls(env_assets, task, spare_assets, device=options.device)
+
+    def device_model_bytes(self) -> int:
+        return int(self.mjm.nbuffer)
+
+    def bench_figures(self) -> dict:
+        return {"device": self.device, "timestep": self.task.physics.timestep,
+                "device_memory_mb": self.device_memory_mb()}  # fmt: skip
+
+    def step(self, velocity: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
         """One control step at the commanded velocities (num_envs, 6), as BatchSim.step.
         Returns the unstable flags: a non-finite state, a world MuJoCo Warp reset (its clock
         restarted), or a runaway peg."""

@@ -36,6 +36,10 @@ from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv, train_config
 
 
+ENGINE = "mujoco-warp"
+"""The registered engine (sim/engines/registry.py) this env steps."""
+
+
 class WarpTorchVecEnv:
     """`num_envs` peg-in-hole envs, one MuJoCo Warp world each, on torch tensors on the
     simulator's device (see module doc). The arguments are PegInHoleVecEnv's; `device` a
@@ -77,11 +81,11 @@ class WarpTorchVecEnv:
         # own copies on the device and steps the engine itself
         base = PegInHoleVecEnv(
             dataset, num_envs, config, module_ids=module_ids, assignment_seed=assignment_seed,
-            rotate_modules=rotate_modules, engine="mujoco-warp", warp_device=device,
+            rotate_modules=rotate_modules, engine=ENGINE, warp_device=device,
         )  # fmt: skip
-        # per-module constants, rows in base._mod_row order (the modules the envs can hold)
-        known = np.flatnonzero(base._mod_row >= 0)
-        entrance = base._mod["entrance"]
+        # per-module constants, rows in base.module_row order (the modules the envs can hold)
+        known = np.flatnonzero(base.module_row >= 0)
+        entrance = base.module_tables["entrance"]
         flat = np.all(entrance[:, :3, :3] == np.eye(3), axis=(1, 2)) & (entrance[:, 2, 3] == 0)
         if not flat.all():
             raise ValueError(
@@ -97,7 +101,7 @@ class WarpTorchVecEnv:
         self.module_ids = base.module_ids
         self.rotate_modules = base.rotate_modules
         self.protocol: dict[str, Any] = {}
-        wp = sim._wp
+        wp = sim.wp
         self._wp = wp
         self.device = dev = torch.device(wp.device_to_torch(sim.device))
         self.check_every = int(check_every)
@@ -107,34 +111,34 @@ class WarpTorchVecEnv:
             return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype, device=dev)
 
         self._known_ids = [base.module_ids[k] for k in known]
-        self._mod_row = t(base._mod_row, torch.int64)
-        mf = base._mod_frames
+        self._mod_row = t(base.module_row, torch.int64)
+        mf = base.module_frames
         self._mframes = TT.TorchFrames.of(
             K.Frames(
                 rows=mf.rows,
                 origin=mf.origin_in,
                 bottom_pos=mf.bottom_pos,
                 bottom_quat_conj=mf.bottom_quat_conj,
-                bottom=base._mod["bottom"],
-                vertices=base._mod["peg_vertices"],
-                hole_radius=base._mod["hole_radius"],
-                reach=base._mod["peg_reach"],
+                bottom=base.module_tables["bottom"],
+                vertices=base.module_tables["peg_vertices"],
+                hole_radius=base.module_tables["hole_radius"],
+                reach=base.module_tables["peg_reach"],
             ),
             dev,
         )
         self._m_entrance_pos = t(entrance[:, :3, 3])
-        self._m_entrance_quat = t(base._mod_entrance_quat)
+        self._m_entrance_quat = t(base.module_entrance_quat)
         # the engine's per-world fields and each module's values of them
         self._fields = {f: wp.to_torch(getattr(sim.model, f)) for f in sim.host}
         self._tables = {
             f: torch.stack(
-                [torch.as_tensor(sim._cast(f, sim._per_module[m][f])) for m in self._known_ids]
+                [torch.as_tensor(sim.cast(f, sim.per_module[m][f])) for m in self._known_ids]
             )
             .reshape(len(known), *view.shape[1:])  # geom_aabb: (6,) on the host, (2, 3) here
             .to(dev)
             for f, view in self._fields.items()
         }
-        poses = [sim._pose_rows(m) for m in self._known_ids]
+        poses = [sim.pose_rows(m) for m in self._known_ids]
         self._pose_tables = (
             t(np.stack([p[0] for p in poses]), torch.float32),
             t(np.stack([p[1] for p in poses]), torch.float32),
@@ -152,11 +156,11 @@ class WarpTorchVecEnv:
         self._scale = t([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = t([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
 
-        # module assignment (rotation: a ring of the modules no env holds, as base._queue)
-        first, queue = base._first_assignment
+        # module assignment (rotation: a ring of the modules no env holds, as base.module_queue)
+        first, queue = base.first_assignment
         self._first = (t(first, torch.int64), t(np.asarray(queue, dtype=np.int64), torch.int64))
         self.env_module = self._first[0].clone()
-        self._queue = self._first[1].clone()
+        self.module_queue = self._first[1].clone()
 
         self.global_step = 0
         self.gen = torch.Generator(device=dev)
@@ -189,12 +193,12 @@ class WarpTorchVecEnv:
         m = self._mframes
         return TT.TorchFrames(**{k: getattr(m, k)[rows] for k in m.__dataclass_fields__})
 
-    def _rotate(self, mask: torch.Tensor) -> None:
+    def rotate_envs(self, mask: torch.Tensor) -> None:
         """Envs in `mask`, in index order, hand their modules to the back of the queue and
-        take the front ones: base._rotate's FIFO, batched. With S = queue ++ (the handed-back
+        take the front ones: base.rotate_envs's FIFO, batched. With S = queue ++ (the handed-back
         modules in env order), the j-th env in the mask takes S[j] and the queue becomes
         S[k : k + L] (k envs, L queued modules)."""
-        n, q = self.num_envs, self._queue
+        n, q = self.num_envs, self.module_queue
         length = len(q)
         pos = torch.cumsum(mask.long(), 0) - 1
         k = mask.long().sum()
@@ -207,7 +211,7 @@ class WarpTorchVecEnv:
             )
 
         new = s(pos)
-        self._queue = s(k + torch.arange(length, device=self.device))
+        self.module_queue = s(k + torch.arange(length, device=self.device))
         self.env_module = torch.where(mask, new, self.env_module)
 
     def _use_modules(self, mask: torch.Tensor) -> None:
@@ -238,7 +242,7 @@ class WarpTorchVecEnv:
         """New episodes in the envs of `mask`: module rotation, spawn, contact draws,
         bookkeeping (PegInHoleVecEnv._reset_envs, on the device)."""
         if self.rotate_modules:
-            self._rotate(mask)
+            self.rotate_envs(mask)
         if self.rotate_modules or self._fresh_fields:
             self._use_modules(mask)
             self._fresh_fields = False
@@ -327,7 +331,7 @@ class WarpTorchVecEnv:
             self.gen.manual_seed(int(seed))
             if self.rotate_modules:
                 self.env_module = self._first[0].clone()
-                self._queue = self._first[1].clone()
+                self.module_queue = self._first[1].clone()
                 self._fresh_fields = True
         everyone = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self._reset(everyone)
@@ -413,13 +417,13 @@ def make_device_train_env(
     seed: int,
     curriculum_steps: int | None = None,
     keep_physics: bool = False,
-    engine: str = "mujoco-warp",
+    engine: str = ENGINE,
     curriculum_success: float | None = None,
     module_replay: float | None = None,
 ) -> WarpTorchVecEnv:
     """sim.env.make_train_env's env on the device: the same task, modules in turns."""
-    if engine != "mujoco-warp":
-        raise ValueError(f"engine = {engine!r}: the env on the device runs on mujoco-warp")
+    if engine != ENGINE:
+        raise ValueError(f"engine = {engine!r}: the env on the device runs on {ENGINE}")
     # WarpTorchVecEnv refuses a success-gated curriculum: it runs in the host env only
     root, config = train_config(
         dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
