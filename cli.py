@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -232,11 +231,11 @@ def cmd_info(args: argparse.Namespace) -> int:
 def _eval_hooks():
     import numpy as np
 
+    from evaluation.recording import EpisodeRecorder, env_labels
+    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
     from rl.commands import EvalHooks
     from sim import make_eval_env
     from sim.task.expert import EXPERTS
-    from evaluation.recording import EpisodeRecorder, env_labels
-    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
 
     def random_agent(seed: int):
         rng = np.random.default_rng(seed)
@@ -271,6 +270,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from assetgen.bench import add_parser as add_assets_bench
+    from assetgen.families.command import add_parser as add_families_parser
     from sim.bench.command import add_parsers as add_sim_benches
     from sim.engines.registry import add_engine_argument
 
@@ -326,9 +326,7 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("dataset", help="spec name or dataset folder")
     i.set_defaults(func=cmd_info)
 
-    fa = sub.add_parser("families", help="the families `sample --family` takes, with parameters")
-    fa.add_argument("--json", action="store_true", help="print one JSON list instead of the table")
-    fa.set_defaults(func=cmd_families)
+    add_families_parser(sub)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
     targets = b.add_subparsers(dest="what", required=True, metavar="{assets,sim,load,contacts}")

@@ -22,12 +22,12 @@ from pathlib import Path
 import torch
 
 from evaluation.protocol import evaluate
+from rl.agents import reset_hook
 from rl.dreamer.config import DreamerConfig
 from rl.gym_vec import GymVecEnv
 from rl.ppo import PPOConfig
 from rl.presets import Setup
 from rl.random_agent import RandomConfig
-from rl.agents import reset_hook
 from rl.run_state import load_agent
 from rl.runner import console, train
 from rl.sac import SACConfig

@@ -170,8 +170,8 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
         if run is not None:
             import torch
 
-            from rl.checkpoint import CheckpointError, read_counters
             from rl.agents import acting_state_hooks, reset_hook
+            from rl.checkpoint import CheckpointError, read_counters
             from rl.report_load import variant_name
             from rl.run_state import load_agent
             from rl.stack import StackObs

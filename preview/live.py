@@ -203,8 +203,8 @@ class LivePolicy:
         """Play the module in `module_dir` (a no-op when it is the one played): a new env, and
         a spawn shown. PreviewError when the simulator cannot load the module."""
         from sim.assets.loading import AssetError, load_module
-        from sim.task.config import EVAL_CONFIG
         from sim.env import PegInHoleVecEnv
+        from sim.task.config import EVAL_CONFIG
 
         module_dir = Path(module_dir)
         if module_dir == self.module_dir and self.frame is not None:

@@ -79,9 +79,7 @@ def print_error(message: str) -> int:
     from rich.markup import escape
 
     err = Console(stderr=True)
-    err.print(
-        f"[bold red]error:[/] {escape(flag_words(message))}", highlight=False, soft_wrap=True
-    )
+    err.print(f"[bold red]error:[/] {escape(flag_words(message))}", highlight=False, soft_wrap=True)
     return 2
 
 

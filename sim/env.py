@@ -38,15 +38,15 @@ import numpy as np
 from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
-from sim.task import kernel as K
-from sim.task import rules as T
 from sim.assets.loading import ModuleAsset, check_physics, dataset_root, load_dataset
 from sim.engines.base import EngineOptions
+from sim.engines.physx.config import PhysxConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
+from sim.task import kernel as K
+from sim.task import rules as T
 from sim.task.config import TaskConfig
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
-from sim.engines.physx.config import PhysxConfig
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -260,7 +260,8 @@ class PegInHoleVecEnv:
         replay = self.module_replay
         for e in idx.tolist():
             self.module_queue.append(int(self.env_module[e]))
-            k = self.module_queue.pop(0 if replay is None else replay.pick(self.rng, self.module_queue))
+            queue = self.module_queue
+            k = queue.pop(0 if replay is None else replay.pick(self.rng, queue))
             self.env_module[e] = k
             self.sim.set_module(e, self.module_ids[k])
         self._use_modules()
@@ -485,9 +486,7 @@ class PegInHoleVecEnv:
         physics, per-env contact draws, episode bookkeeping, RNG, counters. (MuJoCo's solver
         warm start is not state here: every control step starts it cold.)"""
         if not self.stateful:
-            raise ValueError(
-                f"engine = {self.engine!r}: saving the env's state is MuJoCo's only"
-            )
+            raise ValueError(f"engine = {self.engine!r}: saving the env's state is MuJoCo's only")
         friction, solref = self.sim.contact_params()
         return {
             "shard_state": self.sim.shard_state.copy(),
@@ -613,9 +612,10 @@ def make_train_env(
     paper's 50 M); `seed` orders the modules. With fewer envs than modules, the envs take
     the modules in turns (a new module at every episode), so training sees all of them.
     A dataset written for other physics is refused unless `keep_physics` (then it is
-    simulated with the physics its files carry). engine: a registered engine's name (physx, the referee,
-    serves one env per module, so num_envs must cover the dataset's modules; for training
-    on mujoco-warp the command line takes sim/engines/warp/env.py's env, the task on the device)."""
+    simulated with the physics its files carry). engine: a registered engine's name (physx,
+    the referee, serves one env per module, so num_envs must cover the dataset's modules;
+    for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
+    task on the device)."""
     root, config = train_config(
         dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
     )

@@ -14,9 +14,9 @@ pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[war
 
 from assetgen.core.mujoco_config import physics_for
 from sim.assets.loading import load_dataset
-from sim.task.config import TaskConfig
 from sim.bench.stress import StressConfig, stress
 from sim.bench.stress_warp import stress_warp
+from sim.task.config import TaskConfig
 from tests.test_warp import _dataset
 
 # every case family, few directions, pushes of 0.6 s: 13 runs of one module

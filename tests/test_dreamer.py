@@ -13,6 +13,7 @@ import torch
 from evaluation.command import eval_main
 from evaluation.protocol import evaluate
 from rl import checkpoint as ckpt
+from rl.agents import reset_hook
 from rl.dreamer.actor_critic import imagine
 from rl.dreamer.agent import Dreamer
 from rl.dreamer.config import DreamerConfig
@@ -29,7 +30,6 @@ from rl.dreamer.distributions import (
 from rl.dreamer.replay import ReplayMemoryError, SequenceReplay
 from rl.dreamer.world_model import State
 from rl.presets import Setup, get_setup
-from rl.agents import reset_hook
 from rl.run_state import load_agent
 from rl.runner import train
 from tests.test_rl_runner import Interrupt, NaNAfter, _weights

@@ -153,7 +153,7 @@ def _dotted(node: ast.expr, alias: dict[str, str]) -> str | None:
 
 
 def private_imports(modules: dict[str, Path] | None = None) -> list[str]:
-    """"importer -> module._name" for every private (underscore, not dunder) name a project
+    """ "importer -> module._name" for every private (underscore, not dunder) name a project
     module takes from a module of another package: `from x.y import _z`, or `x.y._z` (also
     through `import x.y as m` / `from x import y` aliases), at the top or in a function."""
     modules = _modules() if modules is None else modules

@@ -1,6 +1,6 @@
-"""The PhysX referee (sim/engines/physx/batch.py, sim/engines/physx/usd_module.py): modules read from their USD
-files, the same task in the same env, free flight that matches MuJoCo's, an expert that
-inserts, and errors that name the file and prim."""
+"""The PhysX referee (sim/engines/physx/batch.py, sim/engines/physx/usd_module.py): modules read
+from their USD files, the same task in the same env, free flight that matches MuJoCo's, an
+expert that inserts, and errors that name the file and prim."""
 
 from __future__ import annotations
 
@@ -18,11 +18,11 @@ pytest.importorskip("pxr", reason="the physx extra: pip install -e '.[physx]'")
 
 from assetgen.core.mujoco_config import physics_for
 from sim.assets.loading import AssetError, load_dataset
-from sim.task.config import TaskConfig
-from sim.env import PegInHoleVecEnv
-from sim.task.expert import DIRECT, expert_action
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.physx.usd_module import load_usd_module
+from sim.env import PegInHoleVecEnv
+from sim.task.config import TaskConfig
+from sim.task.expert import DIRECT, expert_action
 
 
 @functools.cache

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from sim.env import PegInHoleVecEnv
 from sim.adapters.gymnasium_env import GymEnv, GymVectorEnv
+from sim.env import PegInHoleVecEnv
 from tests.test_sim_common import modules, quiet
 
 

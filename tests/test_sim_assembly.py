@@ -12,8 +12,8 @@ import pytest
 from assetgen.dataset.assembly_writer import write_assembly
 from assetgen.families.profile_bolt import ProfileBoltSampler, build_profile_bolt
 from sim.assets.assembly import load_stage
-from sim.task.config import EVAL_CONFIG
 from sim.env import PegInHoleVecEnv
+from sim.task.config import EVAL_CONFIG
 from sim.task.expert import EXPERTS
 
 

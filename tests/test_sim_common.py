@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from sim.assets.loading import ModuleAsset, load_dataset
-from sim.task.config import TaskConfig
 from sim.env import PegInHoleVecEnv
+from sim.task.config import TaskConfig
 
 SEED_START = 2048
 COUNT = 4

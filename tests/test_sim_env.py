@@ -13,9 +13,9 @@ import pytest
 
 from assetgen.core.rotations import rot6d
 from assetgen.dataset.reader import Dataset
-from sim.task import rules as T
 from sim.assets.loading import AssetError, load_dataset
 from sim.env import PegInHoleVecEnv, assign_modules
+from sim.task import rules as T
 from sim.task.expert import expert_action
 from tests.test_sim_common import make_env, modules, quiet, sim_dataset
 

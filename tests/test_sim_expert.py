@@ -11,9 +11,9 @@ import numpy as np
 
 from cli import main
 from evaluation.protocol import evaluate
+from evaluation.recording import EpisodeRecorder, env_labels
 from sim import make_eval_env
 from sim.task.expert import expert_action
-from evaluation.recording import EpisodeRecorder, env_labels
 from tests.test_sim_common import sim_dataset
 
 

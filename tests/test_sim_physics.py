@@ -10,9 +10,9 @@ import pytest
 
 from assetgen.core.rotations import matrix_to_quat, matrix_to_rotvec, quat_to_matrix
 from sim.assets.loading import load_dataset
-from sim.task.config import PhysicsConfig
-from sim.env import PegInHoleVecEnv
 from sim.engines.mujoco.scene import restitution_to_dampratio
+from sim.env import PegInHoleVecEnv
+from sim.task.config import PhysicsConfig
 from tests.test_sim_common import above_plate, make_env, quiet
 
 # one physics step per env step, so every physics state can be inspected

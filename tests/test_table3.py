@@ -111,8 +111,8 @@ def test_next_takes_the_lanes_in_order_and_leaves_the_held_and_the_filed(tmp_pat
     # --plan: who runs a lane, and an evaluation begun (its snapshot) beside one to do
     import numpy as np
 
-    from rl import checkpoint as ckpt
     from evaluation.snapshots import EvalSnapshots
+    from rl import checkpoint as ckpt
 
     ckpt.save(runs / "ppo-s1" / "checkpoint.safetensors", {},
               {"counters": {"env_steps": 1_230_000, "wall_s": 1800.0}})  # fmt: skip

@@ -18,10 +18,10 @@ pytest.importorskip("warp", reason="the warp extra: pip install -e '.[warp]'")
 from assetgen.core.mujoco_config import physics_for
 from assetgen.core.rotations import quat_conj, quat_mul
 from sim.assets.loading import load_dataset
-from sim.task.config import TaskConfig
-from sim.env import PegInHoleVecEnv
-from sim.task.expert import DIRECT, expert_action
 from sim.engines.warp.batch import load_warp
+from sim.env import PegInHoleVecEnv
+from sim.task.config import TaskConfig
+from sim.task.expert import DIRECT, expert_action
 
 pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[warp]'")
 load_warp()  # quiet, as the engine keeps Warp: no line per kernel module in the test log
@@ -217,7 +217,8 @@ def test_without_a_gpu_warp_asks_for_allow_cpu(command, monkeypatch, capsys, tmp
         argv += ["--out", str(tmp_path / "run")]
     assert main([*argv, "--sim", "mujoco-warp"]) != 0
     err = capsys.readouterr().err.strip()
-    assert "--allow-cpu" in err and f"{sim.engines.warp.batch.CPU_SLOWDOWN} times slower" in err, err
+    slowdown = sim.engines.warp.batch.CPU_SLOWDOWN
+    assert "--allow-cpu" in err and f"{slowdown} times slower" in err, err
     assert "\n" not in err and not built
 
 

@@ -1,5 +1,5 @@
-"""The env on the device (sim/engines/warp/env.py), run on Warp's CPU device so that CI needs no GPU:
-the same states, observations and rewards as the host env on the same engine, the host's
+"""The env on the device (sim/engines/warp/env.py), run on Warp's CPU device so that CI needs
+no GPU: the same states, observations and rewards as the host env on the same engine, the host's
 module rotation, each world's fields those of its module, and the spawn's ranges."""
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[war
 torch = pytest.importorskip("torch")
 
 from sim.assets.loading import load_dataset  # noqa: E402
+from sim.engines.warp.env import WarpTorchVecEnv  # noqa: E402
 from sim.env import PegInHoleVecEnv  # noqa: E402
 from sim.task.expert import DIRECT, expert_action  # noqa: E402
-from sim.engines.warp.env import WarpTorchVecEnv  # noqa: E402
 from tests.test_warp import _dataset, _quiet  # noqa: E402
 
 

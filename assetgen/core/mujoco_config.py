@@ -5,7 +5,7 @@ checks the physics the agents train on.
 Dependency-free apart from numpy (and mujoco for `apply_to_spec`): sim imports it without the
 geometry code, assetgen imports it without sim. Two writers, one source:
 
-    apply_to_spec(spec, physics)      the option block, on a mujoco.MjSpec (sim/engines/mujoco/scene.py)
+    apply_to_spec(spec, physics)      the option block, on a mujoco.MjSpec (the simulator's scene)
     option_xml(physics)               the same as MJCF text (assetgen/formats/mjcf.py)
     contact_solref(z, physics)        geom solref for damping ratio z (k fixed)
     velocity_gains(m, com, I, ...)    the six velocity actuators' kv (linear, angular)
@@ -53,8 +53,9 @@ class PhysicsConfig:
     """Most force a command can ask of a linear actuator, N: the gain is capped at
     force_limit / (2.2 x max_lin_vel), so even a full command reversal stays below it, and
     pushing into a wall at full command presses with kv x max_lin_vel = 9.1 N at most. The
-    actuator is not clamped to it (see sim/engines/mujoco/scene.py): a clamped damper integrated implicitly
-    spins knocked pegs up to km/s; past the limit only a contact's knock can take the peg."""
+    actuator is not clamped to it (see sim/engines/mujoco/scene.py): a clamped damper integrated
+    implicitly spins knocked pegs up to km/s; past the limit only a contact's knock can take the
+    peg."""
     torque_limit: float = 1.5
     """Most torque a command can ask of an angular actuator, N m (gain capped as for the
     force)."""

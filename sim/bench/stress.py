@@ -2,10 +2,10 @@
 
     assetgen bench contacts DATASET [--limit N] [--set FIELD=VALUE ...] [--source sim|mjcf]
 
-Each module is stepped open loop (the commands are fixed in advance) through `mujoco.rollout`
-in C threads, one model per module: the simulator's own model of it (sim.engines.mujoco.scene, under the
-given PhysicsConfig) or its exported `peg_in_hole.xml` (the physics the file carries). A
-contact sensor on the peg reads MuJoCo's own contact distance at every physics step.
+Each module is stepped open loop (the commands are fixed in advance) through `mujoco.rollout` in
+C threads, one model per module: the simulator's own model of it (sim.engines.mujoco.scene,
+under the given PhysicsConfig) or its exported `peg_in_hole.xml` (the physics the file carries).
+A contact sensor on the peg reads MuJoCo's own contact distance at every physics step.
 
 Cases, all in the hole's frame (`bottom`), each peg with the simulator's velocity actuators:
 
@@ -47,9 +47,9 @@ from assetgen.core.mujoco_config import LEGACY_PHYSICS, PHYSICS_VERSION, physics
 from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
 from sim.assets.loading import ModuleAsset
-from sim.task.config import PhysicsConfig, TaskConfig
 from sim.engines.mujoco.scene import build_spec
 from sim.engines.registry import get_engine
+from sim.task.config import PhysicsConfig, TaskConfig
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -788,8 +788,9 @@ def main(args) -> int:
                          "(--set FIELD=VALUE): drop --source and --physics-version")  # fmt: skip
     if mjcf is not None and not spec.reads_mjcf:
         raise ValueError(f"--sim {spec.name} runs the simulator's models: drop --source mjcf")
-    settings = physics if on_physics else settings_class(**parse_overrides(settings_class,
-                                                                            args.set or []))
+    settings = (
+        physics if on_physics else settings_class(**parse_overrides(settings_class, args.set or []))
+    )
     files = {"mjcf": mjcf, "nthread": args.threads} if spec.reads_mjcf else {}
     t0 = time.perf_counter()
     records = spec.load("stress")(assets, cfg, TaskConfig(physics=physics), settings,

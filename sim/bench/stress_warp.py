@@ -1,9 +1,9 @@
 """The contact stress benchmark's runs (sim/bench/stress.py) on MuJoCo Warp.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`contact_stress.run_figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py): every run of
-every module is a world of one model, all stepped together for the longest run's length
-(each run's figures read its own first steps). Each physics step's commands come from a
+figures (`sim.bench.stress.run_figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py):
+every run of every module is a world of one model, all stepped together for the longest run's
+length (each run's figures read its own first steps). Each physics step's commands come from a
 table on the device, and the peg's state and its deepest contact are recorded there; the
 host reads them once at the end. A run's model variant is set in its own world: `mu=X` the
 peg's friction, `free` the actuators' gains zeroed (MuJoCo's runs disable actuation, which
@@ -20,9 +20,9 @@ from collections.abc import Callable
 import numpy as np
 
 from sim.assets.loading import ModuleAsset
-from sim.task.config import TaskConfig
-from sim.bench.stress import Run, StressConfig, run_figures, module_runs, press_as_force
+from sim.bench.stress import Run, StressConfig, module_runs, press_as_force, run_figures
 from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, load_warp
+from sim.task.config import TaskConfig
 
 _GAINS = ("actuator_gainprm", "actuator_biasprm")
 

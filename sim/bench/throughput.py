@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from sim.task.config import EVAL_CONFIG, TaskConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.env import PegInHoleVecEnv
+from sim.task.config import EVAL_CONFIG, TaskConfig
 
 
 def _random_actions(env: PegInHoleVecEnv, steps: int, rounds: int, seed: int) -> list:

@@ -27,11 +27,11 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from sim.engines.base import EngineOptions, EngineSim
-from sim.task import kernel as K
 from sim.assets.loading import ModuleAsset
-from sim.task.config import TaskConfig
+from sim.engines.base import EngineOptions, EngineSim
 from sim.engines.mujoco.scene import build_model, contact_solref, restitution_to_dampratio
+from sim.task import kernel as K
+from sim.task.config import TaskConfig
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # Counts that size arrays of mjData: the capacity model's must be at least each model's.

@@ -214,7 +214,7 @@ def build_spec(
             max_ang_vel=max_ang_vel,
         )
     for i in range(pad_geoms):
-        # inert spheres: they only enlarge the model (see sim/engines/mujoco/batch.py, capacity model)
+        # inert spheres: they only enlarge the model (the capacity model of batch.py)
         g = spec.worldbody.add_geom()
         g.name = f"pad{i}"
         g.size = [0.001, 0, 0]

@@ -1,9 +1,9 @@
 """BatchSim's contract on a second engine: PhysX 5 on the CPU (SAPIEN 3), the referee.
 
-Each module is read from its USD file (sim/engines/physx/usd_module.py): the convex collision pieces, the
-peg's collision mesh and its mass properties. Every env lives in one PhysX scene, on a grid
-`spacing` apart, and collides only with its own module (collision groups: the upper 16 bits
-of the fourth group word are the env's id, which PhysX's filter never pairs across). The
+Each module is read from its USD file (sim/engines/physx/usd_module.py): the convex collision
+pieces, the peg's collision mesh and its mass properties. Every env lives in one PhysX scene, on
+a grid `spacing` apart, and collides only with its own module (collision groups: the upper 16
+bits of the fourth group word are the env's id, which PhysX's filter never pairs across). The
 peg's velocity is tracked by a PhysX D6 drive between the world and the peg frame (its origin
 is the bottom-face centre): stiffness 0 and damping kv, the gains of the MuJoCo actuators
 (`velocity_gains`), solved implicitly inside PhysX's solver as MuJoCo's `discrete`
@@ -28,12 +28,12 @@ import numpy as np
 
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
-from sim.engines.base import EngineOptions, EngineSim
-from sim.task import kernel as K
 from sim.assets.loading import AssetError, ModuleAsset
-from sim.task.config import PhysicsConfig, TaskConfig
+from sim.engines.base import EngineOptions, EngineSim
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.physx.usd_module import UsdModule, load_usd_module
+from sim.task import kernel as K
+from sim.task.config import PhysicsConfig, TaskConfig
 
 
 def _sapien():
@@ -176,8 +176,8 @@ def _planes(points: np.ndarray) -> np.ndarray:
 
 
 class PhysxBatchSim(EngineSim):
-    """`num_envs` peg-in-hole scenes in one PhysX scene; the interface of sim.engines.mujoco.batch.BatchSim
-    that PegInHoleVecEnv uses for evaluation (no module rotation, no saved env state)."""
+    """`num_envs` peg-in-hole scenes in one PhysX scene, behind the engine interface
+    (sim/engines/base.py), for evaluation: no module rotation, no saved env state."""
 
     def __init__(
         self,

@@ -8,8 +8,8 @@ meshes into its slots; the slots its module does not use hold a tiny mesh parked
 the module, out of every peg's reach.
 
 Every value a module changes is taken from that module's own model, compiled by the CPU
-simulator's `sim.engines.mujoco.scene.build_spec` with its pieces padded to the slot count: the batched
-fields whose values differ between modules (geom frames and bounds, the peg's mass and
+simulator's `sim.engines.mujoco.scene.build_spec` with its pieces padded to the slot count:
+the batched fields whose values differ between modules (geom frames and bounds, the peg's mass and
 inertia, the actuator gains, ...) are copied per world, so a world is its module's CPU model
 in everything but float precision. MuJoCo Warp computes the poses of geoms fixed to the world
 once, so the slots' poses are written per world here as well.
@@ -35,11 +35,11 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
-from sim.engines.base import EngineOptions, EngineSim
-from sim.task import kernel as K
 from sim.assets.loading import AssetError, ModuleAsset
-from sim.task.config import TaskConfig
+from sim.engines.base import EngineOptions, EngineSim
 from sim.engines.mujoco.scene import build_spec, contact_solref, restitution_to_dampratio
+from sim.task import kernel as K
+from sim.task.config import TaskConfig
 
 PARK_DEPTH = 10.0
 """m below the module origin where unused piece slots lie."""
@@ -120,9 +120,10 @@ def require_gpu(allow_cpu: bool = False) -> None:
 
 
 def slot_spec(asset: ModuleAsset, task: TaskConfig, slots: int) -> mujoco.MjSpec:
-    """The CPU simulator's spec of one module (`sim.engines.mujoco.scene.build_spec`), its pieces padded to
-    `slots` geoms with parked tiny meshes. The parked geoms follow the pieces on the world
-    body, so piece slot i is geom i and the peg's geom is geom `slots` in every module."""
+    """The CPU simulator's spec of one module (`sim.engines.mujoco.scene.build_spec`), its
+    pieces padded to `slots` geoms with parked tiny meshes. The parked geoms follow the pieces
+    on the world body, so piece slot i is geom i and the peg's geom is geom `slots` in every
+    module."""
     spec = build_spec(
         [asset], task.physics, max_lin_vel=task.max_lin_vel, max_ang_vel=task.max_ang_vel
     )
@@ -144,9 +145,9 @@ def slot_spec(asset: ModuleAsset, task: TaskConfig, slots: int) -> mujoco.MjSpec
 
 
 class WarpBatchSim(EngineSim):
-    """`num_envs` peg-in-hole scenes, one MuJoCo Warp world each; the interface of
-    sim.engines.mujoco.batch.BatchSim that PegInHoleVecEnv uses (module rotation included, no saved env
-    state). State layout as BatchSim's: [time, pos (3), quat w x y z (4), qvel (6)].
+    """`num_envs` peg-in-hole scenes, one MuJoCo Warp world each, behind the engine interface
+    (sim/engines/base.py): module rotation included, no saved env state. State layout as
+    BatchSim's: [time, pos (3), quat w x y z (4), qvel (6)].
 
     env_assets: each env's module; spare_assets: further modules an env may be put on with
     `set_module`. device: a Warp device ("cuda:0", "cpu"); None: the GPU if there is one.

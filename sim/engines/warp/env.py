@@ -28,13 +28,12 @@ from typing import Any
 import numpy as np
 import torch
 
+from sim.assets.loading import ModuleAsset
+from sim.env import PegInHoleVecEnv, train_config
 from sim.task import kernel as K
 from sim.task import rules as T
 from sim.task import rules_torch as TT
-from sim.assets.loading import ModuleAsset
 from sim.task.config import TaskConfig
-from sim.env import PegInHoleVecEnv, train_config
-
 
 ENGINE = "mujoco-warp"
 """The registered engine (sim/engines/registry.py) this env steps."""
