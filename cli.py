@@ -228,43 +228,6 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _eval_hooks():
-    import numpy as np
-
-    from evaluation.recording import EpisodeRecorder, env_labels
-    from evaluation.sequence import evaluate_assembly_dataset, is_assembly_dataset
-    from rl.commands import EvalHooks
-    from sim import make_eval_env
-    from sim.task.expert import EXPERTS
-
-    def random_agent(seed: int):
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 6))
-
-    return EvalHooks(
-        make_env=make_eval_env,
-        agents={
-            **{name: (lambda seed, act=act: act) for name, act in EXPERTS.items()},
-            "random": random_agent,
-        },
-        labels=env_labels,
-        recorder=EpisodeRecorder,
-        policies={**dict.fromkeys(EXPERTS, "deterministic"), "random": "stochastic"},
-        is_sequence=is_assembly_dataset,
-        run_sequence=evaluate_assembly_dataset,
-    )
-
-
-def cmd_eval(args: argparse.Namespace) -> int:
-    from rl.commands import eval_main
-
-    if (args.agent is None) == (args.checkpoint is None):
-        agents = "|".join((*EXPERT_NAMES, "random"))
-        return _err(f"give one of --agent {agents} and --checkpoint RUN_DIR")
-    args.run, args.episodes = args.checkpoint, args.attempts
-    return eval_main(args, _eval_hooks())
-
-
 # ----------------------------------------------------------------------------- main
 
 
