@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sim.bench.stress import targets
+from sim.bench.stress.figures import targets
 
 
 def _pct(s: dict, key: str) -> str:

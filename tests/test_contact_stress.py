@@ -1,4 +1,4 @@
-"""The contact stress benchmark (sim/bench/stress.py): the project's physics meets the
+"""The contact stress benchmark (sim/bench/stress/): the project's physics meets the
 contact targets on test-split modules, the benchmark sees soft contacts where they are, and
 the exported file behaves as the simulator's model does."""
 
@@ -9,7 +9,9 @@ from dataclasses import replace
 import pytest
 
 from assetgen.core.mujoco_config import PhysicsConfig, physics_for, physics_from_record
-from sim.bench.stress import HoleGeometry, StressConfig, stress, summarize, targets
+from sim.bench.stress.cases import HoleGeometry, StressConfig
+from sim.bench.stress.figures import summarize, targets
+from sim.bench.stress.mujoco import stress
 from tests.test_sim_common import modules, sim_dataset
 
 # two modules of the test split (a squashed polygon and a taller peg); every case family

@@ -1,4 +1,4 @@
-"""The contact stress benchmark on MuJoCo Warp (sim/bench/stress_warp.py), run on Warp's CPU
+"""The contact stress benchmark on MuJoCo Warp (sim/bench/stress/warp.py), run on Warp's CPU
 device (float32, the GPU's kernels): the runs give MuJoCo's figures on the CPU, and every mesh
 a world can take has the face polygons multiccd needs."""
 
@@ -14,8 +14,9 @@ pytest.importorskip("mujoco_warp", reason="the warp extra: pip install -e '.[war
 
 from assetgen.core.mujoco_config import physics_for
 from sim.assets.loading import load_dataset
-from sim.bench.stress import StressConfig, stress
-from sim.bench.stress_warp import stress_warp
+from sim.bench.stress.cases import StressConfig
+from sim.bench.stress.mujoco import stress
+from sim.bench.stress.warp import stress_warp
 from sim.task.config import TaskConfig
 from tests.test_warp import _dataset
 

@@ -211,8 +211,8 @@ def test_the_observation_of_a_pose_is_mujocos() -> None:
 def test_the_stress_benchmark_measures_physx_friction() -> None:
     """The friction runs of the contact stress benchmark on PhysX: a peg slid across the
     plate under 1 N shows the configured coefficient (within 5 % at 0.1 and 0.5)."""
-    from sim.bench.stress import StressConfig
-    from sim.bench.stress_physx import run_module_physx
+    from sim.bench.stress.cases import StressConfig
+    from sim.bench.stress.physx import run_module_physx
 
     cfg = StressConfig(cases=("friction",), friction_values=(0.1, 0.5))
     asset = load_dataset(_dataset())[0]

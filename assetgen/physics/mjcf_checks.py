@@ -12,7 +12,7 @@ How the force is applied matters more than one would think. MuJoCo only finds a 
 the surfaces overlap: a peg flying into a wall under the full force is up to a step's travel
 inside it before any contact acts (at 5 ms steps 0.6 - 1 mm), and a contact lost for one step
 (a peg rocking onto one edge, or bouncing in a V between two walls) costs the same again. That
-measures the timestep, not the contact (the contact stress benchmark, sim/bench/stress.py,
+measures the timestep, not the contact (the contact stress benchmark, sim/bench/stress/,
 measures those impacts). So the push is guarded (see `_push`): while the peg touches nothing
 its speed is limited (`speed`, default 1 cm/s sideways, 10 cm/s down the hole); in contact
 the force ramps up to its full value over RAMP_TIME, and the run ends once the peg has rested

@@ -1,3 +1,3 @@
 """Benchmarks of the simulator: throughput (throughput.py), env build and load time
-(build.py, load.py), and the contact stress benchmark (stress.py, with stress_physx.py and
-stress_warp.py for the other engines)."""
+(build.py, load.py), and the contact stress benchmark (the stress/ package: its cases,
+figures and command, and a runner for each engine)."""

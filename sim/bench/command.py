@@ -96,7 +96,7 @@ def run_load(args: argparse.Namespace) -> int:
 
 def run_contacts(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error
-    from sim.bench.stress import main
+    from sim.bench.stress.command import main
 
     args.dataset = args.target
     try:

@@ -1,13 +1,13 @@
-"""The contact stress benchmark's runs (sim/bench/stress.py) on MuJoCo Warp.
+"""The contact stress benchmark's runs (sim/bench/stress/cases.py) on MuJoCo Warp.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`sim.bench.stress.run_figures`), stepped in MuJoCo Warp (sim/engines/warp/batch.py):
-every run of every module is a world of one model, all stepped together for the longest run's
-length (each run's figures read its own first steps). Each physics step's commands come from a
-table on the device, and the peg's state and its deepest contact are recorded there; the
-host reads them once at the end. A run's model variant is set in its own world: `mu=X` the
-peg's friction, `free` the actuators' gains zeroed (MuJoCo's runs disable actuation, which
-MuJoCo Warp shares between worlds).
+figures (`sim.bench.stress.figures.run_figures`), stepped in MuJoCo Warp
+(sim/engines/warp/batch.py): every run of every module is a world of one model, all stepped
+together for the longest run's length (each run's figures read its own first steps). Each
+physics step's commands come from a table on the device, and the peg's state and its deepest
+contact are recorded there; the host reads them once at the end. A run's model variant is set in
+its own world: `mu=X` the peg's friction, `free` the actuators' gains zeroed (MuJoCo's runs
+disable actuation, which MuJoCo Warp shares between worlds).
 
     assetgen bench contacts DATASET --sim mujoco-warp [--limit N] [--allow-cpu]
 """
@@ -20,7 +20,8 @@ from collections.abc import Callable
 import numpy as np
 
 from sim.assets.loading import ModuleAsset
-from sim.bench.stress import Run, StressConfig, module_runs, press_as_force, run_figures
+from sim.bench.stress.cases import Run, StressConfig, module_runs, press_as_force
+from sim.bench.stress.figures import run_figures
 from sim.engines.warp.batch import NCONMAX, NJMAX, WarpBatchSim, load_warp
 from sim.task.config import TaskConfig
 
@@ -78,7 +79,7 @@ def stress_warp(
     njmax: int = NJMAX,
 ) -> list[dict]:
     """Every run of every module on MuJoCo Warp, one world a run; one record (its figures)
-    a run, as sim.bench.stress.stress gives them. settings: unused (MuJoCo Warp takes the
+    a run, as sim.bench.stress.mujoco.stress gives them. settings: unused (MuJoCo Warp takes the
     task's physics; the registry's runners share one signature). device: a Warp device
     (None: the GPU if there is one)."""
     wp, mjw = load_warp()

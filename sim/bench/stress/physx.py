@@ -1,10 +1,10 @@
-"""The contact stress benchmark's runs (sim/bench/stress.py) on PhysX, the referee engine.
+"""The contact stress benchmark's runs (sim/bench/stress/cases.py) on PhysX, the referee engine.
 
 The same runs of each module (pushes, impacts, friction, rebound), their commands and their
-figures (`sim.bench.stress.run_figures`), stepped in PhysX (sim/engines/physx/batch.py): `batch`
-runs of a module at a time, one env each, the drives' targets set before every physics step, the
-state and the deepest contact penetration read after it. MuJoCo's contact sensor gives the
-distance of its contacts; PhysX's contact points give their separation, the same quantity.
+figures (`sim.bench.stress.figures.run_figures`), stepped in PhysX (sim/engines/physx/batch.py):
+`batch` runs of a module at a time, one env each, the drives' targets set before every physics
+step, the state and the deepest contact penetration read after it. MuJoCo's contact sensor gives
+the distance of its contacts; PhysX's contact points give their separation, the same quantity.
 
     assetgen bench contacts DATASET --sim physx [--limit N]
 """
@@ -16,7 +16,8 @@ from collections.abc import Callable
 import numpy as np
 
 from sim.assets.loading import ModuleAsset
-from sim.bench.stress import Run, StressConfig, module_runs, press_as_force, run_figures
+from sim.bench.stress.cases import Run, StressConfig, module_runs, press_as_force
+from sim.bench.stress.figures import run_figures
 from sim.engines.physx.config import PhysxConfig
 from sim.task.config import TaskConfig
 
