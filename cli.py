@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import functools
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-EXPERT_NAMES = ("scripted", "scripted-fast", "scripted-direct")
-"""The built-in scripted experts (`--agent`, `--demos`): the keys of sim.task.expert.EXPERTS,
-named here so that building the parser imports no simulator."""
+if TYPE_CHECKING:
+    from rl.commands import Teacher
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -18,6 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
     from assetgen.dataset.sample_command import add_parser as add_sample_parser
     from assetgen.families.command import add_parser as add_families_parser
     from assetgen.physics.command import add_parser as add_physics_parser
+    from evaluation.command import add_parser as add_eval_parser
     from preview.command import add_parser as add_view_parser
     from sim.bench.command import add_parsers as add_sim_benches
     from sim.engines.registry import add_engine_argument
@@ -38,20 +39,14 @@ def build_parser() -> argparse.ArgumentParser:
     add_assets_bench(targets)
     add_sim_benches(targets)
 
-    from evaluation.command import add_arguments as add_eval_arguments
-    from evaluation.command import main as eval_command
-
-    e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
-    add_eval_arguments(e, EXPERT_NAMES)
-    e.set_defaults(func=eval_command)
-
+    add_eval_parser(sub)
     add_view_parser(sub)
 
     # torch (the `rl` extra) is imported when `train` or `report` runs, not here: it would
     # add over a second to every command
     from rl.commands import add_export_parser, add_report_parser, add_train_parser
 
-    add_train_parser(sub, _train_env, TEACHERS, _probe, add_engine_argument)
+    add_train_parser(sub, _train_env, teachers(), _probe, add_engine_argument)
     add_report_parser(sub)
     add_export_parser(sub)
     return p
@@ -72,14 +67,13 @@ def _probe(*args, **kwargs):
     return dataset_probe(*args, **kwargs)
 
 
-def _expert(name: str):
+def teachers() -> dict[str, Callable[[], Teacher]]:
+    """`assetgen train --demos NAME`: the teachers an agent can learn from, the scripted
+    experts of sim.task.expert.EXPERTS (a numpy-only module), each behind a function that
+    returns it."""
     from sim.task.expert import EXPERTS
 
-    return EXPERTS[name]
-
-
-TEACHERS = {name: functools.partial(_expert, name) for name in EXPERT_NAMES}
-"""`assetgen train --demos NAME`: the teachers an agent can learn from."""
+    return {name: (lambda act=act: act) for name, act in EXPERTS.items()}
 
 
 EXTRAS: dict[str, tuple[str, ...]] = {
