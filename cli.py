@@ -1,4 +1,8 @@
-"""The `assetgen` command: parses arguments, calls the packages, prints results."""
+"""The `assetgen` command. Each command lives beside the code it drives, where an
+`add_parser(subparsers)` declares its flags and handler; this module builds the parser from
+them, hands `train` the simulator's env, the probe and the scripted teachers (rl never
+imports the simulator), and dispatches, turning a missing optional library into the extra
+to install."""
 
 from __future__ import annotations
 
