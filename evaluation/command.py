@@ -1,7 +1,8 @@
 """`assetgen eval`: the paper's protocol for a built-in agent or a trained checkpoint; cli.py
-registers it and calls it:
+registers it (add_parser) and calls it:
 
-    add_arguments(parser, experts)      the flags of `assetgen eval`
+    add_parser(subparsers)              `assetgen eval`: its flags (add_arguments) and main
+    add_arguments(parser)               the flags of `assetgen eval`
     main(args)                          the parser's func: checks --agent/--checkpoint, runs
                                         eval_main
     eval_main(args, make_env=None)      build the env and the policy, play the protocol
@@ -38,13 +39,22 @@ SNAPSHOT_EVERY_S = 300.0
 (evaluation/snapshots.py)."""
 
 
-def add_arguments(e: argparse.ArgumentParser, experts: tuple[str, ...]) -> None:
-    """Declare the flags of `assetgen eval` on its subparser; `experts`: the scripted
-    experts' names (the keys of sim.task.expert.EXPERTS, spelled by the caller so that
-    building the parser imports no simulator)."""
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """`assetgen eval`, beside the code it drives."""
+    e = sub.add_parser("eval", help="the paper's protocol: every module, K attempts, noise on")
+    add_arguments(e)
+    e.set_defaults(func=main)
+
+
+def add_arguments(e: argparse.ArgumentParser) -> None:
+    """Declare the flags of `assetgen eval` on its subparser; `--agent` offers the scripted
+    experts of sim.task.expert.EXPERTS (a numpy-only module: no engine is imported), then
+    random."""
+    from sim.task.expert import EXPERTS
+
     e.add_argument(
         "--agent",
-        choices=[*experts, "random"],
+        choices=[*EXPERTS, "random"],
         help="a built-in agent",
     )
     e.add_argument("--checkpoint", type=Path, help="a training run folder (rl)")

@@ -3,7 +3,7 @@
     serve(dataset, module=..., episode=..., host="127.0.0.1", port=None,
           policy=None, record=None) -> ViewerHandle
     write_html(dataset, out, module=..., episode=...) -> Path      (self-contained snapshot)
-    command.add_arguments / command.view_main                       (`assetgen view`)
+    command.add_parser (add_arguments, view_main)                   (`assetgen view`)
 
 With a policy (`assetgen view DATASET --policy RUN_OR_POLICY_DIR [--record DIR]`) the page
 gets a Policy folder: run the trained policy on the shown module in real time (50 Hz

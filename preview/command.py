@@ -1,19 +1,24 @@
-"""CLI wiring for `assetgen view` (kept import-light: viser loads only when the command runs).
+"""`assetgen view`, beside the viewer it runs (kept import-light: viser loads only when the
+command runs).
 
     assetgen view DATASET [--module ID] [--episode FILE] [--host H] [--port P] [--html OUT]
                           [--policy RUN_OR_POLICY_DIR [--record DIR]]
 
-In cli.py:
-    v = sub.add_parser("view", help="browser preview of modules and episodes (viser)")
-    from preview.command import add_arguments, view_main
-    add_arguments(v)
-    v.set_defaults(func=view_main)
+cli.py calls `add_parser(subparsers)`, which declares the flags (`add_arguments`) and sets
+`view_main` as the handler.
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """`assetgen view`, beside the code it drives."""
+    v = sub.add_parser("view", help="browser preview of modules and episodes (viser)")
+    add_arguments(v)
+    v.set_defaults(func=view_main)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -56,20 +61,17 @@ def view_main(args: argparse.Namespace) -> int:
     bad data found later, e.g. a corrupt module or NaN actions, in the page and keeps
     running)."""
     from rich.console import Console
-    from rich.markup import escape
 
-    err = Console(stderr=True)
+    from assetgen.core.console_output import print_error
 
-    def fail(text: str) -> int:
-        err.print(f"[bold red]error:[/] {escape(text)}", highlight=False, soft_wrap=True)
-        return 2
+    err = Console(stderr=True)  # the live viewer's messages
 
     policy = getattr(args, "policy", None)  # absent when a caller builds args by hand
     record = getattr(args, "record", None)
     if policy is not None and args.html is not None:
-        return fail("--policy runs in the live viewer; drop --html (a snapshot cannot step)")
+        return print_error("--policy runs in the live viewer; drop --html (a snapshot cannot step)")
     if record is not None and policy is None:
-        return fail("--record DIR records the live runs of --policy; give --policy RUN too")
+        return print_error("--record DIR records the live runs of --policy; give --policy RUN too")
     if policy is not None:
         from preview.live import find_checkpoint
         from preview.scene import PreviewError
@@ -77,7 +79,7 @@ def view_main(args: argparse.Namespace) -> int:
         try:
             find_checkpoint(policy)  # before loading torch: a wrong path is told at once
         except PreviewError as e:
-            return fail(str(e))
+            return print_error(str(e))
     if args.html is not None:
         from preview.scene import PreviewError
         from preview.snapshot import write_html
@@ -85,7 +87,7 @@ def view_main(args: argparse.Namespace) -> int:
         try:
             path = write_html(args.dataset, args.html, module=args.module, episode=args.episode)
         except PreviewError as e:
-            return fail(str(e))
+            return print_error(str(e))
         size = path.stat().st_size / 1e6
         print(f"wrote {path} ({size:.1f} MB): opens in a browser without a server")
         return 0
@@ -105,6 +107,6 @@ def view_main(args: argparse.Namespace) -> int:
             record=record,
         )
     except PreviewError as e:  # no such dataset, a host it cannot listen on, a bad policy
-        return fail(str(e))
+        return print_error(str(e))
     handle.wait()
     return 0

@@ -1,6 +1,6 @@
-"""The algorithms the runner trains: their names and config classes (ALGOS), the Agent
-protocol the runner drives, building a fresh agent, and an agent's optional hooks (a
-recurrent agent's `reset(mask)`, its acting state).
+"""The algorithms the runner trains: the Agent protocol the runner drives, building a fresh
+agent, and an agent's optional hooks (a recurrent agent's `reset(mask)`, its acting state).
+Their names and config classes are rl/algorithms.py's registry (ALGOS).
 """
 
 from __future__ import annotations
@@ -12,20 +12,12 @@ from typing import Any, Protocol
 import numpy as np
 import torch
 
+from rl.algorithms import ALGOS, config_class
 from rl.dreamer.agent import Dreamer
-from rl.dreamer.config import DreamerConfig
-from rl.ppo import PPO, PPOConfig
+from rl.ppo import PPO
 from rl.presets import AlgoConfig
-from rl.random_agent import RandomAgent, RandomConfig
-from rl.sac import SAC, SACConfig
-
-ALGOS: dict[str, type] = {
-    "ppo": PPOConfig,
-    "sac": SACConfig,
-    "dreamer": DreamerConfig,
-    "random": RandomConfig,
-}
-"""Algorithm name -> its config class."""
+from rl.random_agent import RandomAgent
+from rl.sac import SAC
 
 
 class Agent(Protocol):
@@ -93,7 +85,7 @@ def acting_state_hooks(agent: Any) -> tuple[Callable[[], Any], Callable[[Any], N
 
 def config_from_dict(algo: str, d: dict[str, Any]) -> AlgoConfig:
     """Rebuild a config dataclass from its JSON form (lists back to tuples)."""
-    cls = ALGOS[algo]
+    cls = config_class(algo)
     tuples = {f.name for f in fields(cls) if isinstance(f.default, tuple)}
     return cls(**{k: tuple(v) if k in tuples else v for k, v in d.items()})
 

@@ -52,9 +52,9 @@ def parse_overrides(algo: str, items: list[str]) -> dict[str, Any]:
     """`--set FIELD=VALUE` items -> {field: value} for `algo`'s config, each value parsed as
     the field's default is typed (ValueError naming the field and the valid ones)."""
     from assetgen.core.overrides import parse_overrides as parse
-    from rl.agents import ALGOS
+    from rl.algorithms import config_class
 
-    return parse(ALGOS[algo], items)
+    return parse(config_class(algo), items)
 
 
 FLAGS = {
@@ -103,7 +103,8 @@ def add_train_parser(
     --probe-steps (MakeProbe); `add_engine_argument(parser, help)` adds the simulator's
     engine flag (`--sim`, which leaves `engine_options` for make_env), when the caller has
     engines to offer."""
-    from rl.names import ALGO_NAMES, PRESET_NAMES
+    from rl.algorithms import ALGOS
+    from rl.presets import PRESETS
 
     p = subparsers.add_parser(
         "train",
@@ -111,7 +112,7 @@ def add_train_parser(
         description="Train an agent on the vector env; progress bar, metrics.csv, TensorBoard "
         "and checkpoints in --out. --resume continues a run exactly (see rl/runner.py).",
     )
-    p.add_argument("--algo", choices=ALGO_NAMES, required=True, help="algorithm")
+    p.add_argument("--algo", choices=sorted(ALGOS), required=True, help="algorithm")
     p.add_argument(
         "--stack",
         type=int,
@@ -121,7 +122,7 @@ def add_train_parser(
     p.add_argument("--dataset", required=True, help="dataset spec name or folder")
     p.add_argument(
         "--preset",
-        choices=PRESET_NAMES,
+        choices=sorted(PRESETS),
         default="cpu",
         help="hyperparameter preset (rl/presets.py; default cpu)",
     )

@@ -8,99 +8,13 @@ info["final_obs"]; terminated ones are not.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 
+from rl.configs import PPOConfig
 from rl.nets import ActorCritic, check_finite
-
-
-@dataclass(frozen=True)
-class PPOConfig:
-    """PPO hyperparameters (defaults: paper Table II and the original implementation)."""
-
-    hidden: tuple[int, ...] = (512, 512)
-    """Hidden layer widths of the actor and of the critic MLP."""
-    activation: str = "elu"
-    """Hidden-layer activation: elu (rsl_rl's choice), relu or tanh."""
-    learning_rate: float = 3e-4
-    """Adam learning rate (the start value when `desired_kl` adapts it)."""
-    gamma: float = 0.997
-    """Discount factor."""
-    gae_lambda: float = 0.95
-    """GAE lambda: the bias-variance trade-off of the advantage estimate."""
-    horizon: int = 128
-    """Steps per env per rollout; a rollout holds horizon * num_envs transitions."""
-    minibatch_size: int = 8192
-    """Transitions per gradient step (a rollout smaller than this is one minibatch)."""
-    epochs: int = 8
-    """Passes over each rollout."""
-    clip: float = 0.2
-    """Clip range epsilon of the probability ratio."""
-    value_coef: float = 0.5
-    """Weight of the value loss."""
-    entropy_coef: float = 3e-4
-    """Weight of the entropy bonus."""
-    max_grad_norm: float = 0.5
-    """Global gradient-norm clip."""
-    init_log_std: float = 0.0
-    """Initial log standard deviation of the Gaussian policy (0: std 1)."""
-    normalize_obs: bool = True
-    """Normalise observations with running statistics (updated after each rollout)."""
-    obs_symlog_scale: float | None = None
-    """If set, the networks see symlog(k obs) with k this (then normalised): 1000 reads
-    positions in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
-    reward_scale: float = 1.0
-    """Rewards are multiplied by this before learning (logged returns are not)."""
-    desired_kl: float | None = None
-    """If set, adapt the learning rate after each minibatch to keep KL(old||new) near this
-    (rsl_rl's adaptive schedule: /1.5 above 2x, x1.5 below 0.5x, within [1e-5, 1e-2])."""
-    bounds_loss_coef: float = 0.0
-    """Weight of a penalty on policy means beyond +-1.1 (rl_games' bounds loss, used by
-    Isaac Gym's insertion tasks): actions are clipped to [-1, 1], so a mean far past a bound
-    costs the sampled policy nothing while its deterministic policy pushes at the limit."""
-    final_std: float | None = None
-    """If set, the action std is capped by a schedule that falls log-linearly from
-    exp(init_log_std) at `std_decay_start` env steps to this at `std_decay_end`, and stays
-    there. Noise then cannot stay part of the strategy: the mean action, which the
-    deterministic policy plays, has to do the job alone by the end of training."""
-    std_decay_start: int = 0
-    """Env steps (summed over envs) at which the std cap starts to fall."""
-    std_decay_end: int = 0
-    """Env steps at which the std cap reaches `final_std`."""
-
-    def std_cap(self, env_steps: int) -> float | None:
-        """The cap on each action std after `env_steps` env steps (None: no cap)."""
-        if self.final_std is None:
-            return None
-        span = self.std_decay_end - self.std_decay_start
-        f = 1.0 if span <= 0 else (env_steps - self.std_decay_start) / span
-        f = min(max(f, 0.0), 1.0)
-        return math.exp((1.0 - f) * self.init_log_std + f * math.log(self.final_std))
-
-    def validate(self) -> PPOConfig:
-        checks = {
-            "horizon >= 1": self.horizon >= 1,
-            "minibatch_size >= 1": self.minibatch_size >= 1,
-            "epochs >= 1": self.epochs >= 1,
-            "0 < gamma <= 1": 0 < self.gamma <= 1,
-            "0 <= gae_lambda <= 1": 0 <= self.gae_lambda <= 1,
-            "learning_rate > 0": self.learning_rate > 0,
-            "obs_symlog_scale is None or > 0": (
-                self.obs_symlog_scale is None or self.obs_symlog_scale > 0
-            ),
-            "bounds_loss_coef >= 0": self.bounds_loss_coef >= 0,
-            "final_std is None or > 0": self.final_std is None or self.final_std > 0,
-            "0 <= std_decay_start <= std_decay_end": (
-                0 <= self.std_decay_start <= self.std_decay_end
-            ),
-        }
-        bad = [k for k, ok in checks.items() if not ok]
-        if bad:
-            raise ValueError(f"PPOConfig: these must hold: {bad}")
-        return self
 
 
 def gae(

@@ -10,10 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from rl.configs import PPOConfig, RandomConfig, SACConfig
 from rl.dreamer.config import DreamerConfig
-from rl.ppo import PPOConfig
-from rl.random_agent import RandomConfig
-from rl.sac import SACConfig
 
 AlgoConfig = PPOConfig | SACConfig | DreamerConfig | RandomConfig
 

@@ -7,19 +7,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 
-
-@dataclass(frozen=True)
-class RandomConfig:
-    """The random agent has nothing to learn; only the logging unit is configurable."""
-
-    steps_per_iteration: int = 128
-    """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
+from rl.configs import RandomConfig
 
 
 class RandomAgent:

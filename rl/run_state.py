@@ -16,7 +16,8 @@ import numpy as np
 import torch
 
 from rl import checkpoint as ckpt
-from rl.agents import ALGOS, Agent, build_agent, config_from_dict, default_device
+from rl.agents import Agent, build_agent, config_from_dict, default_device
+from rl.algorithms import ALGOS, config_class
 from rl.metrics import EpisodeStats
 from rl.presets import AlgoConfig
 from rl.vec_env import VecEnv, is_stateful
@@ -27,10 +28,11 @@ CHECKPOINT = ckpt.FILE_NAME
 def with_new_defaults(run: dict[str, Any]) -> dict[str, Any]:
     """A checkpoint's run record with the config fields added since it was written at their
     defaults (which keep the old behaviour), so that adding a field does not strand runs."""
-    cls = ALGOS.get(run.get("algo", ""))
+    algo = run.get("algo", "")
     saved = run.get("config")
-    if cls is None or not isinstance(saved, dict):
+    if algo not in ALGOS or not isinstance(saved, dict):
         return run
+    cls = config_class(algo)
     if not set(saved) <= {f.name for f in fields(cls)}:  # a removed field: report it as is
         return run
     return {**run, "config": _jsonable(asdict(config_from_dict(run["algo"], saved)))}

@@ -19,102 +19,14 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 
+from rl.configs import SACConfig
 from rl.nets import QNetwork, SquashedGaussianActor, check_finite
 from rl.nstep import NStepWindow
-
-
-@dataclass(frozen=True)
-class SACConfig:
-    """SAC hyperparameters (defaults: paper Table II and the original implementation)."""
-
-    hidden: tuple[int, ...] = (512, 512)
-    """Hidden layer widths of the actor and of each Q MLP."""
-    activation: str = "relu"
-    """Hidden-layer activation: relu (the usual SAC choice, cheapest on CPU), elu or tanh."""
-    layer_norm: bool = False
-    """LayerNorm before every hidden activation of the actor and the critics: it bounds the
-    hidden features whatever the input's scale, so one far-out observation cannot send the
-    critics' outputs and gradients off (on in the cpu preset; whether resetting runaway pegs,
-    see sim/engines/mujoco/scene.py, makes it unnecessary is not measured)."""
-    obs_symlog_scale: float | None = None
-    """If set, the actor and the critics see symlog(k obs) with k this: 1000 reads positions
-    in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
-    max_grad_norm: float | None = None
-    """Clip the gradient norm of the critics and of the actor to this (None: no clipping);
-    the norms before clipping are logged either way."""
-    learning_rate: float = 8e-5
-    """Adam learning rate of the actor, the critics and the temperature."""
-    gamma: float = 0.997
-    """Discount factor."""
-    tau: float = 0.005
-    """Polyak factor of the target critics: theta' <- tau theta + (1 - tau) theta'."""
-    batch_size: int = 4096
-    """Transitions per gradient step."""
-    buffer_size: int = 20_000_000
-    """Replay buffer capacity, transitions."""
-    warmup_steps: int = 500_000
-    """Transitions (summed over envs) taken with uniform random actions, and collected
-    before the first gradient step."""
-    gradient_steps: float = 8.0
-    """Gradient steps per vector-env step (fractions accumulate: 0.25 = one every 4)."""
-    entropy_coef: float = 3e-4
-    """Temperature alpha (fixed), or its initial value when `learn_entropy`."""
-    learn_entropy: bool = False
-    """Learn alpha so the policy's entropy tracks `target_entropy`."""
-    target_entropy: float | None = None
-    """Entropy target when learning alpha (None: -act_dim)."""
-    reward_scale: float = 1.0
-    """Rewards are multiplied by this before learning (logged returns are not)."""
-    n_step: int = 1
-    """Rewards summed over this many steps before the critics' targets bootstrap (n-step
-    returns, rl/nstep.py; 1: the one-step target of SAC)."""
-    steps_per_iteration: int = 64
-    """Vector-env steps per runner iteration (the logging and checkpoint unit)."""
-    bc_weight: float = 0.5
-    """With a teacher only: weight of the behaviour-cloning term at the start, relative to
-    the batch's mean |Q| (TD3+BC's normalisation; 0: no BC term, the teacher then only
-    plays the warm-up)."""
-    bc_decay_steps: int = 1_000_000
-    """With a teacher only: env steps (summed over envs) over which the BC weight falls
-    linearly to zero."""
-    bc_filter: bool = False
-    """With a teacher only: the BC term applies only to samples where the critics value the
-    teacher's action above the policy's mean action (the Q filter of Nair et al. 2018), so
-    a policy that found something better than a slow teacher is not pulled back."""
-    teacher_noise: float = 0.05
-    """With a teacher only: standard deviation of the Gaussian noise added to its actions
-    during the warm-up (clipped to [-1, 1]), so the demonstrations cover more than its one
-    path. The scripted expert, one attempt on each test module: 100 % success at 0.05 (median
-    3.76 s), 97.6 % at 0.1, 28 % at 0.2 (it jams)."""
-
-    def validate(self) -> SACConfig:
-        checks = {
-            "batch_size >= 1": self.batch_size >= 1,
-            "buffer_size >= batch_size": self.buffer_size >= self.batch_size,
-            "0 < tau <= 1": 0 < self.tau <= 1,
-            "0 < gamma <= 1": 0 < self.gamma <= 1,
-            "gradient_steps >= 0": self.gradient_steps >= 0,
-            "entropy_coef > 0": self.entropy_coef > 0,
-            "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
-            "n_step >= 1": self.n_step >= 1,
-            "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
-            "obs_symlog_scale is None or > 0": (
-                self.obs_symlog_scale is None or self.obs_symlog_scale > 0
-            ),
-            "bc_weight >= 0": self.bc_weight >= 0,
-            "bc_decay_steps >= 0": self.bc_decay_steps >= 0,
-            "teacher_noise >= 0": self.teacher_noise >= 0,
-        }
-        bad = [k for k, ok in checks.items() if not ok]
-        if bad:
-            raise ValueError(f"SACConfig: these must hold: {bad}")
-        return self
 
 
 def soft_target(

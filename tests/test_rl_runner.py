@@ -197,6 +197,16 @@ def test_presets() -> None:
         get_setup("cpu", "dqn")
 
 
+def test_every_preset_sets_up_every_registered_algorithm() -> None:
+    """The algorithm registry's names are the presets' keys, each with its own config."""
+    from rl.algorithms import ALGOS, config_class
+
+    for name, algos in PRESETS.items():
+        assert set(algos) == set(ALGOS), name
+        for algo, setup in algos.items():
+            assert isinstance(setup.config, config_class(algo)), (name, algo)
+
+
 def test_evaluate_counts_exact_episodes_per_env() -> None:
     env = ToyEnv(3, max_steps=40)
     res = evaluate(lambda o: np.clip(o[:, 2:] * 10, -1, 1), env, 4, seed=0)  # go to the goal

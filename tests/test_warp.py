@@ -114,7 +114,7 @@ def test_the_direct_expert_inserts_as_on_the_cpu_with_modules_in_turns() -> None
 
 def test_what_the_warp_engine_refuses(tmp_path: Path) -> None:
     mods = load_dataset(_dataset())
-    with pytest.raises(ValueError, match="engine = 'bullet'"):
+    with pytest.raises(ValueError, match="engine 'bullet' is not registered"):
         PegInHoleVecEnv(mods, 3, _quiet(), engine="bullet")
     env = _env(mods, 2, _quiet(), "mujoco-warp")
     with pytest.raises(ValueError, match="saving the env's state is MuJoCo's only"):

@@ -149,8 +149,9 @@ EXPERTS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "scripted-fast": fast_expert_action,
     "scripted-direct": direct_expert_action,
 }
-"""The built-in experts by their command-line names (`--agent`, `--demos`); cli.EXPERT_NAMES
-lists the same names without importing this module."""
+"""The built-in experts by their command-line names (`--agent`, `--demos`): the command line
+reads them here when it builds its parser, so this module imports numpy and
+assetgen.core only (no engine, no compiled kernel)."""
 
 
 def _split(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

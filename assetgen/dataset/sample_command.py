@@ -1,0 +1,145 @@
+"""`assetgen sample`: generate modules into a dataset folder, from a spec name or from
+--n/--seed/--out, and print the generation's summary."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """`assetgen sample`, beside the code it drives."""
+    s = sub.add_parser("sample", help="generate modules into a dataset folder")
+    s.add_argument("--n", type=int, help="number of modules")
+    s.add_argument("--seed", type=int, default=0, help="first module seed (default 0)")
+    s.add_argument("--out", help="dataset folder to write")
+    s.add_argument("--dataset", help="a spec name from datasets/ (train, test) or a dataset folder")
+    s.add_argument(
+        "--family",
+        default="peg-in-hole",
+        help="what to generate: peg-in-hole (Table I, default) or profile-bolt (a profile "
+        "into a socket, then a bolt from the side)",
+    )
+    s.add_argument(
+        "--clearance-mm",
+        type=float,
+        help="clearance in mm (default: peg-in-hole 1.0; profile-bolt's profile 0.25)",
+    )
+    s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
+    s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    s.add_argument("--overwrite", action="store_true", help="replace a dataset of another spec")
+    s.add_argument(
+        "--ray",
+        nargs="?",
+        const="",
+        metavar="ADDRESS",
+        help="run the modules as Ray tasks: on the cluster at ADDRESS (HOST:PORT, "
+        "ray://HOST:PORT or auto), or without it on a local Ray instance; --out must be a "
+        "folder every node sees (extra [cluster])",
+    )
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from assetgen.core.console_output import print_error
+    from assetgen.dataset.generate import generate
+    from assetgen.dataset.spec import DatasetError
+    from assetgen.params.module_params import ParamError
+
+    try:
+        root, spec = sample_spec(args)
+        check_writable(root)
+        s = generate(
+            root,
+            spec,
+            workers=args.workers,
+            overwrite=args.overwrite,
+            progress=not args.quiet,
+            ray=args.ray,
+        )
+    except (DatasetError, ParamError, ValueError) as e:
+        return print_error(str(e))
+    except OSError as e:
+        return print_error(
+            f"cannot write the dataset: {e}; choose another --out folder or free space"
+        )
+    console = Console(stderr=False)
+    table = Table(title=f"dataset {root}", show_header=False)
+    rate = s.generated / s.seconds if s.seconds > 0 else float("nan")
+    for k, v in (
+        ("modules", s.total),
+        ("generated", s.generated),
+        ("cached", s.cached),
+        ("failed", len(s.failures)),
+        ("clearance min", f"{s.clearance_min_m * 1e3:.6f} mm"),
+        ("clearance max", f"{s.clearance_max_m * 1e3:.6f} mm"),
+        ("time", f"{s.seconds:.2f} s"),
+        ("modules/s", f"{rate:.1f}"),
+        ("content hash", s.content_hash[:16]),
+    ):
+        table.add_row(k, str(v))
+    console.print(table)
+    for f in s.failures:
+        console.print(f"[red]failed[/] seed {f.seed}: {f.reason}", highlight=False)
+    return 1 if s.failures else 0
+
+
+def sample_spec(args: argparse.Namespace):
+    """(dataset folder, DatasetSpec) that `args` ask for; DatasetError for the user."""
+    from assetgen.dataset.families import family
+    from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
+    from assetgen.formats.registry import available_formats
+    from assetgen.params.sampler import SamplerConfig
+
+    if args.dataset:
+        if args.out or args.n is not None:
+            raise DatasetError("give either --dataset or --n/--seed/--out, not both")
+        root, spec = resolve(args.dataset)
+        if spec is None:
+            from assetgen.dataset.reader import Dataset
+
+            spec = Dataset(root).spec
+        return root, spec
+    if args.out is None or args.n is None:
+        raise DatasetError("give --n N --out DIR (and optionally --seed S), or --dataset NAME")
+    if args.n < 1:
+        raise DatasetError(f"--n {args.n}: ask for at least 1 module")
+    if args.seed < 0:
+        raise DatasetError(f"--seed {args.seed}: seeds are non-negative integers")
+    try:
+        fam = family(args.family)
+    except ValueError as e:
+        raise DatasetError(str(e)) from None
+    config = fam.sampler()
+    if args.clearance_mm is not None:
+        # the clearance of the family's first step (Table I's only one; the profile's)
+        key = "clearance" if isinstance(config, SamplerConfig) else "profile_clearance"
+        config = replace(config, **{key: args.clearance_mm / 1000.0})
+    formats = tuple(args.formats.split(",")) if args.formats else available_formats()
+    spec = DatasetSpec(
+        name=Path(args.out).name,
+        seed_start=args.seed,
+        count=args.n,
+        config=config,
+        formats=formats,
+        family=fam.name,
+    )
+    return Path(args.out), spec
+
+
+def check_writable(root: Path) -> None:
+    """DatasetError when the first existing folder of `root`'s path is not writable."""
+    import os
+
+    from assetgen.dataset.spec import DatasetError
+
+    probe = root
+    while not probe.exists():
+        probe = probe.parent
+    if not os.access(probe, os.W_OK):
+        raise DatasetError(f"cannot write to {probe}: choose a folder you can write to (--out)")
