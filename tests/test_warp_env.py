@@ -133,7 +133,7 @@ def test_training_on_the_device_env(algo: str, tmp_path, monkeypatch) -> None:
 
     from cli import main
     from rl.host_view import HostView
-    from sim import warp_env
+    from sim.engines.warp import env as warp_env
 
     seen: dict[str, int] = {"device": 0, "view": 0}
     steps = {"device": warp_env.WarpTorchVecEnv.step, "view": HostView.step}
