@@ -322,7 +322,10 @@ def train(
             if last_saved is not None
             else "no checkpoint had been written yet; run the same command again to start over"
         )
-        console.print(f"[bold red]error:[/] interrupted (Ctrl-C) at iteration {iteration}: {kept}")
+        console.print(
+            f"[bold red]error:[/] interrupted (Ctrl-C) at iteration {iteration}: {kept}",
+            soft_wrap=True,
+        )
     finally:
         bar.close()
         log.close()
