@@ -195,6 +195,28 @@ def test_train_ctrl_c_keeps_the_last_checkpoint_and_says_resume(
     assert code == 0, err
 
 
+def test_train_ctrl_c_while_the_env_is_built(
+    trained_run, tiny_dataset, tmp_path, monkeypatch, capsys
+):
+    """Before the training loop (the runner's own line): the handler looks for the run's
+    checkpoint."""
+
+    def cut(*a, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_train_env", cut)
+    run_dir = tmp_path / "run"
+    shutil.copytree(trained_run, run_dir)
+    argv = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(tiny_dataset),
+            "--envs", "2", "--no-progress"]  # fmt: skip
+    code, _, err = run(capsys, *argv, "--out", str(run_dir), "--resume")
+    line = one_error_line(err)
+    assert code == 130 and f"the last checkpoint in {run_dir} is kept" in line
+    assert "--resume" in line and (run_dir / "checkpoint.safetensors").is_file()
+    code, _, err = run(capsys, *argv, "--out", str(tmp_path / "new"))
+    assert code == 130 and "no checkpoint had been written yet" in one_error_line(err)
+
+
 # -------------------------------------------------------------------------------- eval
 
 
