@@ -45,6 +45,8 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
     from assetgen.formats.registry import available_formats
     from assetgen.params.sampler import SamplerConfig
 
+    if n < 1:
+        raise ValueError(f"--n {n}: give at least 1 module to time")
     workers = workers or os.cpu_count() or 1
     if where is not None:
         try:

@@ -330,7 +330,7 @@ def train_main(
         return print_error(str(e))
     if args.json:
         print(json.dumps(result))
-    else:
+    elif result["status"] != "interrupted":  # the runner said in one line what was kept
         m, nan = result["metrics"], float("nan")
         # a resumed run whose budget was already spent ran no iteration: no row to give
         last = (

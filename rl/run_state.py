@@ -157,17 +157,33 @@ def agent_from(
     meta = doc["run"]
     if meta["algo"] not in ALGOS:
         raise ckpt.CheckpointError(f"{path}: unknown algorithm {meta['algo']!r}")
+    mixed_up = (
+        "the checkpoint was edited or mixed up with another run's: use the run's own "
+        "checkpoint, or train again"
+    )
+    try:
+        config = config_from_dict(meta["algo"], meta["config"])
+    except (TypeError, ValueError) as e:  # a field of another algorithm's config
+        raise ckpt.CheckpointError(
+            f"{path}: its algorithm {meta['algo']!r} does not match the configuration saved "
+            f"with its weights ({e}); {mixed_up}"
+        ) from e
     agent = build_agent(
         meta["algo"],
         meta["obs_dim"],
         meta["act_dim"],
         meta["num_envs"],
-        config_from_dict(meta["algo"], meta["config"]),
+        config,
         device or default_device(),
         meta["seed"],
     )
     modules = agent.modules()
     if doc.get("policy_only"):  # an exported policy: the networks, no optimisers
         modules = {k: m for k, m in modules.items() if isinstance(m, torch.nn.Module)}
-    ckpt.load_modules(modules, doc["agent"], tensors)
+    try:
+        ckpt.load_modules(modules, doc["agent"], tensors)
+    except ckpt.CheckpointError as e:
+        raise ckpt.CheckpointError(
+            f"{path}: its weights do not fit a {meta['algo']!r} agent ({e}); {mixed_up}"
+        ) from e
     return agent

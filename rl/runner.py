@@ -314,9 +314,17 @@ def train(
         console.print(f"[bold red]training stopped at iteration {iteration + 1}:[/] {e}; {kept}")
     except KeyboardInterrupt:
         status = "interrupted"
+        from rich.markup import escape
+
+        kept = (
+            f"the checkpoint of iteration {last_saved} in {escape(str(out_dir))} is kept; "
+            "continue with the same command and --resume"
+            if last_saved is not None
+            else "no checkpoint had been written yet; run the same command again to start over"
+        )
         console.print(
-            f"interrupted at iteration {iteration}; the checkpoint of iteration {last_saved} "
-            "is kept: continue with --resume"
+            f"[bold red]error:[/] interrupted (Ctrl-C) at iteration {iteration}: {kept}",
+            soft_wrap=True,
         )
     finally:
         bar.close()

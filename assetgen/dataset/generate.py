@@ -260,6 +260,12 @@ def _import_exporters(formats: tuple[str, ...], family: str = "peg-in-hole") -> 
         import assetgen.formats.usd  # noqa: F401
 
 
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _run(
     root: Path,
     spec: DatasetSpec,
@@ -298,7 +304,9 @@ def _run(
                 yield r
             return
         _import_exporters(spec.formats, spec.family)
-        with get_context("fork").Pool(workers) as pool:
+        # Ctrl-C reaches the whole process group: the workers leave it to this process,
+        # which stops them (a module cut mid-write is removed or adopted on the next run)
+        with get_context("fork").Pool(workers, initializer=_ignore_sigint) as pool:
             for r in pool.imap_unordered(_worker, jobs, chunksize=4):
                 bar.advance(task)
                 yield r
