@@ -50,16 +50,20 @@ class Bound:
         what = "a whole number" if integer else "a finite number"
         low = self.low
         if low is not None and self.low_open:
-            return f"give {what} greater than {low:g}" + (
-                f" and at most {self.high:g}" if self.high is not None else ""
+            return f"give {what} greater than {_number(low)}" + (
+                f" and at most {_number(self.high)}" if self.high is not None else ""
             )
         if low is not None and self.high is not None:
-            return f"give {what} from {low:g} to {self.high:g}"
+            return f"give {what} from {_number(low)} to {_number(self.high)}"
         if low is not None:
-            return f"give {what} of at least {low:g}"
+            return f"give {what} of at least {_number(low)}"
         if self.high is not None:
-            return f"give {what} of at most {self.high:g}"
+            return f"give {what} of at most {_number(self.high)}"
         return f"give {what}"
+
+
+def _number(x: float) -> str:
+    return str(x) if isinstance(x, int) else f"{x:g}"
 
 
 def count(hint: str = "", low: int = 1, high: int = MAX_COUNT) -> Bound:
@@ -79,7 +83,8 @@ def share(hint: str = "") -> Bound:
 
 def seed(high: int | None = MAX_SEED) -> Bound:
     """A seed: a whole number from 0 (to MAX_SEED by default)."""
-    return Bound(low=0, high=high, hint="give a seed from 0" + (f" to {high}" if high else ""))
+    to = f"from 0 to {high}" if high is not None else "of 0 or more"
+    return Bound(low=0, high=high, hint=f"give a seed {to}")
 
 
 def flag(dest: str) -> str:
@@ -110,8 +115,7 @@ def _check_folder_can_hold(folder: Path, option: str, path: Path) -> None:
     where = _existing_ancestor(folder)
     if not where.is_dir():
         raise PreflightError(
-            f"{option} {path}: {where} is a file, not a folder, so {folder} cannot be made; "
-            f"choose another {option}"
+            f"{option} {path}: {where} is a file, not a folder; choose another {option}"
         )
     if not os.access(where, os.W_OK | os.X_OK):
         raise PreflightError(
