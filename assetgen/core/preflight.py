@@ -124,14 +124,14 @@ def _check_folder_can_hold(folder: Path, option: str, path: Path) -> None:
         )
 
 
-def check_output_file(path: str | Path, option: str) -> None:
+def check_output_file(path: str | Path, option: str, example: str = "results.json") -> None:
     """PreflightError unless a file can be written at `path` (its folder is made if
-    missing): `path` is not a folder, and its folder exists writable or can be made."""
+    missing): `path` is not a folder, and its folder exists writable or can be made.
+    `example`: a file name the message offers inside a folder given instead."""
     path = Path(path)
     if path.is_dir():
         raise PreflightError(
-            f"{option} {path}: is a folder; give the name of a file to write, e.g. "
-            f"{path / 'results.json'}"
+            f"{option} {path}: is a folder; give the name of a file to write, e.g. {path / example}"
         )
     _check_folder_can_hold(path.parent, option, path)
 
