@@ -431,13 +431,15 @@ def add_report_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
 
 def report_main(args: argparse.Namespace) -> int:
     """Write the report; print the table. Exit code 0, or 2 on bad input."""
+    from assetgen.core.preflight import PreflightError, check_output_folder
     from rl.report import ReportError, replace_table, write_report
 
     try:
+        check_output_folder(args.out, "--out")  # before the runs are read
         doc = write_report(args.runs, args.baselines, args.out)
         if getattr(args, "readme", None) is not None:
             replace_table(args.readme, (args.out / "table.md").read_text())
-    except ReportError as e:
+    except (ReportError, PreflightError) as e:
         from rich.console import Console
 
         Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {e}")
