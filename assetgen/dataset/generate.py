@@ -150,6 +150,19 @@ def _adopt_orphans(root: Path, records: dict[str, dict], wanted: Callable[[str],
                 shutil.rmtree(d, ignore_errors=True)
 
 
+def check_formats(formats: tuple[str, ...]) -> None:
+    """DatasetError unless every name of `formats` is a registered exporter
+    (assetgen.formats.registry; an assembly's writer takes the same names)."""
+    from assetgen.formats.registry import EXPORTERS
+
+    unknown = [f for f in formats if f not in EXPORTERS]
+    if unknown:
+        raise DatasetError(
+            f"formats {list(formats)}: unknown export format(s) {unknown}; valid: "
+            f"{sorted(EXPORTERS)} (--formats, comma-separated, or leave it out for all)"
+        )
+
+
 def generate(
     root: Path,
     spec: DatasetSpec,
@@ -170,6 +183,7 @@ def generate(
     import assetgen.dataset.module_writer  # noqa: F401
 
     spec.validate()
+    check_formats(spec.formats)  # before anything is written: a worker would refuse them
     t0 = time.perf_counter()
     cluster = None
     if ray is not None:
