@@ -440,10 +440,7 @@ def report_main(args: argparse.Namespace) -> int:
         if getattr(args, "readme", None) is not None:
             replace_table(args.readme, (args.out / "table.md").read_text())
     except (ReportError, PreflightError) as e:
-        from rich.console import Console
-
-        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {e}")
-        return 2
+        return print_error(str(e))
     print((args.out / "table.md").read_text(), end="")
     for f in doc["skipped_baselines"]:
         print(f"skipped {f}: not an evaluation file of `assetgen eval --out`")
