@@ -8,6 +8,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from assetgen.core.preflight import count
+
+NUMBERS = {
+    "n": count("give at least 1 module"),
+    "workers": count("give at least 1 process, or leave it out (one a core)"),
+}
+"""The bounds of `bench assets`' numeric flags (assetgen.core.preflight)."""
+
 
 def add_parser(bench: argparse._SubParsersAction) -> None:
     """`assetgen bench assets`, beside the code it drives."""
@@ -21,8 +29,10 @@ def add_parser(bench: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error, print_figures
+    from assetgen.core.preflight import check_numbers
 
     try:
+        check_numbers(args, NUMBERS)  # before the scratch folder is made
         result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
     except ValueError as e:
         return print_error(str(e))

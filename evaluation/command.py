@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from assetgen.core.preflight import Bound, check_numbers, count, seed
 from evaluation.protocol import Policy
 from rl.commands import MakeEnv, print_error, torch_threads
 from sim.engines.registry import add_engine_argument, get_engine
@@ -37,6 +38,18 @@ SNAPSHOT_EVERY_S = 300.0
 """Seconds between the snapshots of a checkpoint's evaluation with --out
 (OUT.partial.safetensors): the same command, rerun after a cut, goes on from the last one
 (evaluation/snapshots.py)."""
+
+
+NUMBERS = {
+    "attempts": count("give at least 1 episode per module"),
+    "modules": count("give at least 1 module, or leave it out"),
+    "seed": seed(high=None),
+    "envs": count("give at least 1 env, or leave it out (one per module)"),
+    "noise_scale": Bound(low=0.0, hint="give a finite scale of at least 0 (1: the paper's noise)"),
+    "record_limit": count(low=0),
+    "threads": count(),
+}
+"""The bounds of eval's numeric flags (assetgen.core.preflight), checked before any work."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -141,6 +154,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
     make_env: the env factory; None, the simulator's (sim.make_eval_env), whose datasets may
     hold assemblies (played in sequence) and whose envs name their modules (per_module).
     Another factory (a test's toy env) gets neither."""
+    from assetgen.core.preflight import check_output_file, check_output_folder
     from assetgen.core.recorded_path import recorded_path
     from evaluation.protocol import evaluate
 
@@ -161,6 +175,12 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
     out = getattr(args, "out", None)  # absent when a caller builds args without --out
     snapshots = None
     try:
+        # before any env is built: an evaluation can take an hour, its results written last
+        check_numbers(args, NUMBERS)
+        if out is not None:
+            check_output_file(out, "--out")
+        if record is not None:
+            check_output_folder(record, "--record")
         if args.episodes < 1:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         if limit is not None and limit < 1:
@@ -241,7 +261,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
             if not sequence:
                 env = base = make_env(
                     args.dataset, args.envs, args.seed, noise_scale=noise_scale,
-                    **on_engine, **subset,
+                    keep_physics=keep, **on_engine, **subset,
                 )  # fmt: skip
             policy = agents[args.agent](args.seed)
             head = {"agent": args.agent, "policy": POLICIES.get(args.agent, "deterministic")}

@@ -13,6 +13,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from assetgen.core.preflight import Bound
+
+NUMBERS = {"port": Bound(low=0, high=65535, hint="give a port from 1 to 65535, or 0 (a free one)")}
+"""The bounds of view's numeric flags (assetgen.core.preflight)."""
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """`assetgen view`, beside the code it drives."""
@@ -63,6 +68,12 @@ def view_main(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import (
+        PreflightError,
+        check_numbers,
+        check_output_file,
+        check_output_folder,
+    )
 
     err = Console(stderr=True)  # the live viewer's messages
 
@@ -72,6 +83,14 @@ def view_main(args: argparse.Namespace) -> int:
         return print_error("--policy runs in the live viewer; drop --html (a snapshot cannot step)")
     if record is not None and policy is None:
         return print_error("--record DIR records the live runs of --policy; give --policy RUN too")
+    try:  # before the dataset is read or a server started
+        check_numbers(args, NUMBERS)
+        if args.html is not None:
+            check_output_file(args.html, "--html", "snapshot.html")
+        if record is not None:
+            check_output_folder(record, "--record")
+    except PreflightError as e:
+        return print_error(str(e))
     if policy is not None:
         from preview.live import find_checkpoint
         from preview.scene import PreviewError

@@ -33,7 +33,11 @@ from typing import Any
 
 import numpy as np
 
+from assetgen.core.preflight import count, positive, seed, share
 from rl.vec_env import VecEnv
+
+CHECKPOINT_FILE = "checkpoint.safetensors"
+"""A run folder's checkpoint (rl/checkpoint.py's FILE_NAME, named here without torch)."""
 
 MakeEnv = Callable[..., VecEnv]
 """make_env(dataset, num_envs, seed, **task) -> a VecEnv; ValueError for a bad dataset
@@ -89,6 +93,48 @@ def torch_threads(threads: int | None) -> int:
     import os
 
     return threads or max(1, (os.cpu_count() or 2) // 2)
+
+
+TRAIN_NUMBERS = {
+    "stack": count("stack at least 1 observation (1 = no stacking)"),
+    "steps": count("give a positive number of env steps"),
+    "minutes": positive("give a positive, finite duration in minutes"),
+    "seed": seed(),  # numpy's global generator takes seeds below 2**32
+    "envs": count("give at least 1 env, or leave it out (the preset's)"),
+    "curriculum_steps": count("give 0 (off) or more steps", low=0),
+    "curriculum_success": share("give a success rate in (0, 1], e.g. 0.8"),
+    "module_replay": share(
+        "give the share of modules drawn by their failures, in (0, 1], e.g. 0.5"
+    ),
+    "threads": count(),
+    "probe_steps": count("give a positive number of steps"),
+    "checkpoint_minutes": positive("give a positive, finite number of minutes"),
+    "probe_modules": count(),
+    "probe_attempts": count("give at least 1 probe episode per module"),
+}
+"""The bounds of train's numeric flags (assetgen.core.preflight), checked before any env is
+built."""
+
+
+def check_train_args(args: argparse.Namespace) -> None:
+    """ValueError (PreflightError) for a flag of `train` that the run would fail on later:
+    a number out of bounds, --out a file or in a place that cannot be written, --out holding
+    a run without --resume or none with it."""
+    from assetgen.core.preflight import PreflightError, check_numbers, check_output_folder
+
+    check_numbers(args, TRAIN_NUMBERS)
+    out = Path(args.out)
+    check_output_folder(out, "--out")
+    held = out / CHECKPOINT_FILE
+    if getattr(args, "resume", False) and not held.is_file():
+        raise PreflightError(
+            f"--resume: no checkpoint at {held}; drop --resume to start a new run there"
+        )
+    if not getattr(args, "resume", False) and held.exists():
+        raise PreflightError(
+            f"{out} already holds a run ({CHECKPOINT_FILE}): pass --resume to continue it, "
+            "or choose another --out folder"
+        )
 
 
 def add_train_parser(
@@ -241,39 +287,22 @@ def train_main(
     from rl.presets import get_setup
     from rl.runner import console, train
 
-    torch.set_num_threads(torch_threads(args.threads))
     try:
+        check_train_args(args)  # before any env is built or anything written
+        torch.set_num_threads(torch_threads(args.threads))
         setup = get_setup(args.preset, args.algo)
-        if args.steps is not None and args.steps < 1:
-            raise ValueError(f"--steps {args.steps}: give a positive number of env steps")
-        if args.minutes is not None and args.minutes <= 0:
-            raise ValueError(f"--minutes {args.minutes}: give a positive duration")
         curriculum = setup.curriculum_steps
         if args.curriculum_steps is not None:
-            if args.curriculum_steps < 0:
-                raise ValueError(
-                    f"--curriculum-steps {args.curriculum_steps}: give 0 (off) or more steps"
-                )
             curriculum = args.curriculum_steps
         gated = getattr(args, "curriculum_success", None)
-        if gated is not None:
-            if not 0.0 < gated <= 1.0:
-                raise ValueError(
-                    f"--curriculum-success {gated}: give a success rate in (0, 1], e.g. 0.8"
-                )
-            if args.curriculum_steps is not None:
-                raise ValueError(
-                    "--curriculum-success and --curriculum-steps exclude each other: the "
-                    "spawn ranges follow either success or env steps"
-                )
+        if gated is not None and args.curriculum_steps is not None:
+            raise ValueError(
+                "--curriculum-success and --curriculum-steps exclude each other: the "
+                "spawn ranges follow either success or env steps"
+            )
         gate = {} if gated is None else {"curriculum_success": gated}
         replay = getattr(args, "module_replay", None)
         if replay is not None:
-            if not 0.0 < replay <= 1.0:
-                raise ValueError(
-                    f"--module-replay {replay}: give the share of modules drawn by their "
-                    "failures, in (0, 1], e.g. 0.5"
-                )
             gate["module_replay"] = replay
         teacher = None
         demos = getattr(args, "demos", None)
@@ -289,12 +318,8 @@ def train_main(
         on_engine = _engine_kwargs(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
-            if probe_steps < 1:
-                raise ValueError(f"--probe-steps {probe_steps}: give a positive number of steps")
             if make_probe is None:
                 raise ValueError("--probe-steps: this env offers no evaluation env to probe")
-            if args.probe_modules < 1:
-                raise ValueError(f"--probe-modules {args.probe_modules}: give at least 1")
             probe = make_probe(args.dataset, args.probe_modules, args.probe_attempts, args.stack,
                                keep_physics=keep, **on_engine)  # fmt: skip
         env = make_env(
@@ -406,17 +431,16 @@ def add_report_parser(subparsers: argparse._SubParsersAction) -> argparse.Argume
 
 def report_main(args: argparse.Namespace) -> int:
     """Write the report; print the table. Exit code 0, or 2 on bad input."""
+    from assetgen.core.preflight import PreflightError, check_output_folder
     from rl.report import ReportError, replace_table, write_report
 
     try:
+        check_output_folder(args.out, "--out")  # before the runs are read
         doc = write_report(args.runs, args.baselines, args.out)
         if getattr(args, "readme", None) is not None:
             replace_table(args.readme, (args.out / "table.md").read_text())
-    except ReportError as e:
-        from rich.console import Console
-
-        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {e}")
-        return 2
+    except (ReportError, PreflightError) as e:
+        return print_error(str(e))
     print((args.out / "table.md").read_text(), end="")
     for f in doc["skipped_baselines"]:
         print(f"skipped {f}: not an evaluation file of `assetgen eval --out`")

@@ -2,12 +2,14 @@
 
 The text goes to `<name>.tmp` beside the target, then `os.replace` (atomic on POSIX) moves
 it onto the name: a crash or a full disk mid-write leaves the previous file, or none, never
-half of one. (Checkpoints, MJCF and USD writers use unique temporary names instead, since
-concurrent writers may share their folder.)
+half of one, and a write that fails leaves no `.tmp` behind. (Checkpoints, MJCF and USD
+writers use unique temporary names instead, since concurrent writers may share their
+folder.)
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -20,8 +22,13 @@ def write_text(path: str | Path, text: str) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException:  # a full disk, a folder at `path`, Ctrl-C: no .tmp left behind
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        raise
     return path
 
 

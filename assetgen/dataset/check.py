@@ -11,7 +11,7 @@ from assetgen import GENERATOR_VERSION
 from assetgen.checks.module_checks import CheckError, verify
 from assetgen.core.frames import Frame
 from assetgen.core.stl import read_stl_mm
-from assetgen.dataset.generate import generate
+from assetgen.dataset.generate import check_formats, generate
 from assetgen.dataset.module_writer import module_id, sha256
 from assetgen.dataset.reader import Dataset, manifest_line, read_manifest
 from assetgen.dataset.spec import DatasetError, DatasetSpec
@@ -134,7 +134,10 @@ def check_dataset(root: Path, *, geometry_checks: bool = True) -> CheckReport:
 
 
 def repair(root: Path, report: CheckReport, *, workers: int | None = None, progress: bool = True):
-    """Delete the broken modules and their manifest lines, then regenerate just those."""
+    """Delete the broken modules and their manifest lines, then regenerate just those (a
+    spec that cannot be regenerated, e.g. of unknown formats, is refused first: DatasetError)."""
+    spec = DatasetSpec.from_json(json.loads((root / "dataset.json").read_text())["spec"])
+    check_formats(spec.formats)
     bad = set(report.bad)
     for mid in bad:
         shutil.rmtree(root / "modules" / mid, ignore_errors=True)
@@ -147,5 +150,4 @@ def repair(root: Path, report: CheckReport, *, workers: int | None = None, progr
     tmp = manifest.with_name("manifest.jsonl.tmp")
     tmp.write_text("".join(json.dumps(kept[m], sort_keys=True) + "\n" for m in sorted(kept)))
     tmp.replace(manifest)
-    ds_spec = json.loads((root / "dataset.json").read_text())["spec"]
-    return generate(root, DatasetSpec.from_json(ds_spec), workers=workers, progress=progress)
+    return generate(root, spec, workers=workers, progress=progress)

@@ -5,6 +5,11 @@ from __future__ import annotations
 
 import argparse
 
+from assetgen.core.preflight import count
+
+NUMBERS = {"workers": count("give at least 1 process, or leave it out (all cores)")}
+"""The bounds of check's numeric flags (assetgen.core.preflight)."""
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """`assetgen check`, beside the code it drives."""
@@ -22,13 +27,15 @@ def main(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import check_numbers
     from assetgen.dataset.check import check_dataset, repair
     from assetgen.dataset.spec import DatasetError, resolve
 
     try:
+        check_numbers(args, NUMBERS)
         root, _ = resolve(args.dataset)
         report = check_dataset(root, geometry_checks=not args.hashes_only)
-    except DatasetError as e:
+    except (DatasetError, ValueError) as e:
         return print_error(str(e))
     console = Console(stderr=False)
     table = Table(title=f"check {root}", show_header=False)
@@ -49,6 +56,9 @@ def main(args: argparse.Namespace) -> int:
     if not args.repair:
         console.print("run `assetgen check DATASET --repair` to regenerate just these modules")
         return 1
-    s = repair(root, report, workers=args.workers, progress=not args.quiet)
+    try:
+        s = repair(root, report, workers=args.workers, progress=not args.quiet)
+    except (DatasetError, ValueError) as e:  # a spec it cannot regenerate (unknown formats)
+        return print_error(str(e))
     console.print(f"repaired {s.generated} module(s); {len(s.failures)} failed")
     return 1 if s.failures else 0

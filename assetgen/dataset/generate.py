@@ -3,6 +3,11 @@
 A module folder appears only by an atomic rename of a complete temporary folder, and the
 manifest only lists modules whose folder exists, so a run killed at any moment (SIGKILL too)
 leaves a dataset that the next run completes to the same content hash.
+
+The plan streams: the seeds still to make are drawn from the spec's range as the workers take
+them, never listed, so the memory a run needs before its first module does not grow with the
+spec's count (what grows is the manifest lines of the modules made, which the sorted
+manifest and the content hash need).
 """
 
 from __future__ import annotations
@@ -10,7 +15,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
@@ -127,8 +132,9 @@ def _remove_temporaries(root: Path) -> None:
         shutil.rmtree(d, ignore_errors=True)
 
 
-def _adopt_orphans(root: Path, records: dict[str, dict], wanted: set[str]) -> None:
-    """Folders renamed into place by a run killed before its manifest line: take them in.
+def _adopt_orphans(root: Path, records: dict[str, dict], wanted: Callable[[str], bool]) -> None:
+    """Folders renamed into place by a run killed before its manifest line: take them in
+    (`wanted`: whether a folder name is a module of the spec).
 
     Leftover temporary folders of killed runs are removed.
     """
@@ -136,12 +142,25 @@ def _adopt_orphans(root: Path, records: dict[str, dict], wanted: set[str]) -> No
 
     _remove_temporaries(root)
     for d in (root / "modules").iterdir():
-        if d.name in wanted and d.name not in records:
+        if wanted(d.name) and d.name not in records:
             try:
                 rec = json.loads((d / "module.json").read_text())
                 records[d.name] = manifest_line(rec)
             except (OSError, json.JSONDecodeError, KeyError):
                 shutil.rmtree(d, ignore_errors=True)
+
+
+def check_formats(formats: tuple[str, ...]) -> None:
+    """DatasetError unless every name of `formats` is a registered exporter
+    (assetgen.formats.registry; an assembly's writer takes the same names)."""
+    from assetgen.formats.registry import EXPORTERS
+
+    unknown = [f for f in formats if f not in EXPORTERS]
+    if unknown:
+        raise DatasetError(
+            f"formats {list(formats)}: unknown export format(s) {unknown}; valid: "
+            f"{sorted(EXPORTERS)} (--formats, comma-separated, or leave it out for all)"
+        )
 
 
 def generate(
@@ -164,6 +183,7 @@ def generate(
     import assetgen.dataset.module_writer  # noqa: F401
 
     spec.validate()
+    check_formats(spec.formats)  # before anything is written: a worker would refuse them
     t0 = time.perf_counter()
     cluster = None
     if ray is not None:
@@ -183,16 +203,26 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
     _prepare(root, spec, overwrite)
     manifest = root / "manifest.jsonl"
     records = read_manifest(manifest)
-    wanted = {module_id(s): s for s in spec.seeds}
-    _adopt_orphans(root, records, set(wanted))
-    todo = [s for mid, s in wanted.items() if mid not in records]
-    cached = len(wanted) - len(todo)
+    seeds = spec.seeds
+
+    def wanted(name: str) -> bool:
+        """Whether `name` is the module id of a seed of the spec (no table of them)."""
+        if not (name.isascii() and name.isdigit()):
+            return False
+        seed = int(name)
+        return seed in seeds and module_id(seed) == name
+
+    _adopt_orphans(root, records, wanted)
+    done = {mid for mid in records if wanted(mid)}
+    cached = len(done)
+    todo = len(seeds) - cached
     failures: list[ModuleFailure] = []
     step_seconds: StepTimes = {}
     if todo:
+        plan = (s for s in seeds if module_id(s) not in done)  # in seed order, as drawn
         try:
             with manifest.open("a") as out:
-                results = _run(root, spec, todo, workers, progress, cluster)
+                results = _run(root, spec, plan, workers, progress, cluster, total=todo)
                 for seed, line, reason, times in results:
                     add_times(step_seconds, times)
                     if line is None:
@@ -205,7 +235,7 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
             # a full disk, a vanished folder: the modules finished so far are complete and
             # listed (or adopted from their folders next time); half-written ones were removed
             raise DatasetError(
-                f"writing {root} stopped after {len(records)} of {len(wanted)} modules: {e}. "
+                f"writing {root} stopped after {len(records)} of {len(seeds)} modules: {e}. "
                 "The finished modules are kept; fix the cause (e.g. free disk space) and run "
                 "the same command again to resume."
             ) from e
@@ -218,9 +248,9 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
 
     gaps = [g for r in records.values() for g in family(spec.family).gaps(r)]
     summary = RunSummary(
-        total=len(wanted),
+        total=len(seeds),
         cached=cached,
-        generated=len(todo) - len(failures),
+        generated=todo - len(failures),
         failures=failures,
         seconds=time.perf_counter() - t0,
         content_hash=content_hash(records),
@@ -269,15 +299,20 @@ def _ignore_sigint() -> None:
 def _run(
     root: Path,
     spec: DatasetSpec,
-    seeds: list[int],
+    seeds: Iterable[int],
     workers: int | None,
     progress: bool,
     cluster=None,
+    *,
+    total: int,
 ) -> Iterator[Result]:
+    """The results of the modules of `seeds` (`total` of them), as they finish; the jobs are
+    made as the workers take them (a pool's task feeder blocks on its full pipe, Ray keeps
+    a window in flight), so memory is bounded by the work in flight."""
     workers = workers or os.cpu_count() or 1
-    jobs = [
+    jobs = (
         (s, spec.config.to_json(), str(root / "modules"), spec.formats, spec.family) for s in seeds
-    ]
+    )
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
     bar = Progress(
@@ -289,7 +324,7 @@ def _run(
         transient=True,
     )
     with bar:
-        task = bar.add_task("modules", total=len(jobs))
+        task = bar.add_task("modules", total=total)
         if cluster is not None:
             from assetgen.dataset.ray_backend import run_tasks
 

@@ -7,6 +7,17 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
+from assetgen.core.preflight import Bound, count
+
+NUMBERS = {
+    "n": count("ask for at least 1 module"),
+    "seed": Bound(low=0, hint="seeds are non-negative integers"),
+    "workers": count("give at least 1 process, or leave it out (all cores)"),
+}
+"""The bounds of sample's numeric flags (assetgen.core.preflight); --clearance-mm is the
+sampler config's clearance, which validates it (finite, positive) before anything is
+written. --n has no bound of memory: the generation streams its plan."""
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """`assetgen sample`, beside the code it drives."""
@@ -47,12 +58,16 @@ def main(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from assetgen.core.console_output import print_error
-    from assetgen.dataset.generate import generate
+    from assetgen.core.preflight import check_numbers
+    from assetgen.dataset.generate import check_formats, generate
     from assetgen.dataset.spec import DatasetError
     from assetgen.params.module_params import ParamError
 
-    try:
+    try:  # every input before anything is written: flags, spec, formats, the folder
+        check_numbers(args, NUMBERS)
         root, spec = sample_spec(args)
+        check_formats(spec.formats)
+        spec.validate()
         check_writable(root)
         s = generate(
             root,
@@ -107,10 +122,6 @@ def sample_spec(args: argparse.Namespace):
         return root, spec
     if args.out is None or args.n is None:
         raise DatasetError("give --n N --out DIR (and optionally --seed S), or --dataset NAME")
-    if args.n < 1:
-        raise DatasetError(f"--n {args.n}: ask for at least 1 module")
-    if args.seed < 0:
-        raise DatasetError(f"--seed {args.seed}: seeds are non-negative integers")
     try:
         fam = family(args.family)
     except ValueError as e:
@@ -141,5 +152,10 @@ def check_writable(root: Path) -> None:
     probe = root
     while not probe.exists():
         probe = probe.parent
+    if not probe.is_dir():
+        raise DatasetError(
+            f"cannot write the dataset to {root}: {probe} is a file, not a folder; choose "
+            "another --out folder"
+        )
     if not os.access(probe, os.W_OK):
         raise DatasetError(f"cannot write to {probe}: choose a folder you can write to (--out)")

@@ -42,6 +42,18 @@ class DatasetSpec:
     """What the modules are (assetgen.dataset.families): `peg-in-hole` or `profile-bolt`."""
 
     def validate(self) -> DatasetSpec:
+        """Every field of the right type and within its bounds (the formats' names are
+        checked against the exporters where they are written: assetgen.dataset.generate)."""
+        if not isinstance(self.name, str):
+            raise DatasetError(f"name = {self.name!r} must be a string")
+        if not isinstance(self.formats, tuple) or not all(
+            isinstance(f, str) and f for f in self.formats
+        ):
+            raise DatasetError(
+                f"formats = {self.formats!r} must be a list of format names, e.g. ['mjcf', 'usd']"
+            )
+        if isinstance(self.count, bool) or isinstance(self.seed_start, bool):
+            raise DatasetError("count and seed_start are whole numbers, not true/false")
         if not isinstance(self.count, int) or self.count < 1:
             raise DatasetError(f"count = {self.count!r}: a dataset needs at least 1 module")
         if not isinstance(self.seed_start, int) or self.seed_start < 0:

@@ -7,6 +7,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from assetgen.core.preflight import count, positive
+
+NUMBERS = {
+    "limit": count("give at least 1 module"),
+    "workers": count("give at least 1 process, or leave it out (all cores)"),
+    "timestep": positive("give a positive, finite physics step in seconds"),
+}
+"""The bounds of the numeric arguments (assetgen.core.preflight)."""
+
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command's arguments (`assetgen physics` and `python -m assetgen.physics.report`)."""

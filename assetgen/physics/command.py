@@ -18,12 +18,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import check_numbers, check_output_file
     from assetgen.dataset.spec import DatasetError, resolve
+    from assetgen.physics.arguments import NUMBERS
     from assetgen.physics.report import report
 
     try:
+        check_numbers(args, NUMBERS)
+        if args.json is not None:
+            check_output_file(args.json, "--json", "physics.json")
         root, _ = resolve(args.dataset)
-    except DatasetError as e:
+    except (DatasetError, ValueError) as e:
         return print_error(str(e))
     try:
         return report(root, args.limit, args.json, args.workers, args.timestep)

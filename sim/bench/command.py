@@ -5,7 +5,24 @@ from __future__ import annotations
 
 import argparse
 
+from assetgen.core.preflight import count, positive
 from sim.engines.registry import add_engine_argument, engine_names
+
+SIM_NUMBERS = {
+    "envs": count("give at least 1 environment"),
+    "steps": count("give at least 1 control step"),
+    "threads": count("give at least 1 thread, or leave it out"),
+    "shard_size": count("give at least 1 env per model, or leave it out (8)"),
+}
+LOAD_NUMBERS = {"n": count("give at least 1 module")}
+CONTACTS_NUMBERS = {
+    "limit": count("give at least 1 module"),
+    "push_time": positive("give a positive, finite number of seconds"),
+    "physics_version": count("give a physics version (1 or more), or leave it out"),
+    "threads": count("give at least 1 thread, or leave it out"),
+}
+"""The bounds of the `bench` subcommands' numeric flags (assetgen.core.preflight), checked
+before any dataset is read."""
 
 
 def add_parsers(bench: argparse._SubParsersAction) -> None:
@@ -68,9 +85,11 @@ def _user_errors() -> tuple[type[Exception], ...]:
 
 def run_sim(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import check_numbers
     from sim.bench.throughput import bench_main
 
     try:
+        check_numbers(args, SIM_NUMBERS)  # --envs 0 would have run the default 1024
         return bench_main(args)
     except (*_user_errors(), ImportError) as e:
         return print_error(str(e))
@@ -78,11 +97,13 @@ def run_sim(args: argparse.Namespace) -> int:
 
 def run_load(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error, print_figures
+    from assetgen.core.preflight import check_numbers
     from assetgen.dataset.spec import resolve
     from sim.bench.build import bench_build
     from sim.bench.load import bench_load
 
     try:
+        check_numbers(args, LOAD_NUMBERS)
         root = resolve(args.dataset)[0]
         result = bench_load(root, n=args.n)
         # and what the engine (--sim) costs a module at construction
@@ -96,10 +117,14 @@ def run_load(args: argparse.Namespace) -> int:
 
 def run_contacts(args: argparse.Namespace) -> int:
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import check_numbers, check_output_file
     from sim.bench.stress.command import main
 
     args.dataset = args.target
     try:
+        check_numbers(args, CONTACTS_NUMBERS)
+        if args.json is not None:
+            check_output_file(args.json, "--json", "contacts.json")
         return main(args)
     except _user_errors() as e:
         return print_error(str(e))
