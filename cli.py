@@ -130,6 +130,7 @@ def missing_extra_message(command: str, module: str, engine: str | None = None) 
 
 
 PROJECT_ERRORS = frozenset((
+    "assetgen.core.preflight.PreflightError",
     "assetgen.dataset.spec.DatasetError",
     "assetgen.params.module_params.ParamError",
     "assetgen.dataset.module_writer.ModuleFailure",
