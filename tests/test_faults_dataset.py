@@ -203,9 +203,10 @@ def test_a_moved_and_renamed_dataset_is_recognised_by_its_spec(
 
 def test_check_with_geometry_still_passes_an_intact_copy(ds: Path) -> None:
     assert check_dataset(ds).ok
-    assert content_hash(Dataset(ds).records) == json.loads(
-        (ds / "dataset.json").read_text()
-    )["summary"]["content_hash"]
+    assert (
+        content_hash(Dataset(ds).records)
+        == json.loads((ds / "dataset.json").read_text())["summary"]["content_hash"]
+    )
 
 
 def test_the_reader_rounds_as_the_writer() -> None:
