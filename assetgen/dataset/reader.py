@@ -22,6 +22,11 @@ class Dataset:
     def __init__(self, root: Path | str):
         self.root = Path(root)
         spec_file = self.root / "dataset.json"
+        if not spec_file.exists() and (self.root / "manifest.jsonl").exists():
+            raise DatasetError(
+                f"{spec_file} is lost; rebuild it from the manifest with "
+                f"`assetgen check {self.root} --repair`"
+            )
         if not spec_file.exists():
             raise DatasetError(
                 f"{self.root} is not a dataset (no dataset.json); "
