@@ -44,6 +44,7 @@ def main(args: argparse.Namespace) -> int:
     table.add_row("corrupt", str(len(report.corrupt)))
     table.add_row("stale", str(len(report.stale)))
     table.add_row("manifest", report.manifest_error or "ok")
+    table.add_row("dataset.json", report.spec_error or "ok")
     console.print(table)
     for mid in report.missing[:20]:
         console.print(f"[yellow]missing[/] {mid}", highlight=False)

@@ -105,6 +105,12 @@ def _prepare(root: Path, spec: DatasetSpec, overwrite: bool) -> None:
     write_json(info_file, _info(spec, None))
 
 
+def write_info(root: Path, spec: DatasetSpec) -> None:
+    """Write dataset.json as a run starts it (no summary yet): `assetgen check --repair`
+    puts back a lost one this way, and the run it starts writes the finished one."""
+    write_json(root / "dataset.json", _info(spec, None))
+
+
 def _clear(root: Path) -> None:
     import shutil
 

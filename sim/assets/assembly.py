@@ -5,6 +5,8 @@ the pose it was left in (its design pose unless `placed` says otherwise); the mo
 step k's part, colliding as its convex pieces (an assembly's parts are not convex). Frames,
 clearance and mass properties come from module.json, meshes from `assembly.xml` (pieces) and
 `<part>.stl` (the surface, for the task's height and spawn rules): numpy only, no CAD stack.
+In a dataset, those files are checked against its manifest first (once per process; see
+sim.assets.loading).
 """
 
 from __future__ import annotations
@@ -17,7 +19,13 @@ import numpy as np
 from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
 from assetgen.core.mesh import StoredMesh
 from assetgen.core.stl import read_stl_mm
-from sim.assets.loading import AssetError, ModuleAsset, frame_matrix, read_module_file
+from sim.assets.loading import (
+    AssetError,
+    ModuleAsset,
+    frame_matrix,
+    read_module_file,
+    verify_module_files,
+)
 
 
 class AssemblyStages:
@@ -35,6 +43,9 @@ class AssemblyStages:
             self.parts: list[str] = [s["part"] for s in self.steps]
         except (json.JSONDecodeError, KeyError, TypeError) as e:
             raise AssetError(f"{self._meta_path}: not an assembly module ({e})") from e
+        # what it reads, checked against the dataset's manifest (once per process)
+        stls = sorted({f"{part}.stl" for part in self.parts})
+        verify_module_files([d], ("module.json", ASSEMBLY_MJCF_FILE, *stls))
         self._inline = read_inline_meshes(
             read_module_file(d / ASSEMBLY_MJCF_FILE), str(d / ASSEMBLY_MJCF_FILE)
         )

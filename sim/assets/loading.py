@@ -4,11 +4,23 @@ sim/ never calls the geometry code: a module is its frames, its peg's mass prope
 module.json), the peg mesh and the convex collision pieces (inline in the MJCF), all as
 written on disk. Every file is checked here, before any simulation, so a missing or corrupt
 dataset fails with one clear message naming the file.
+
+Verification: a dataset loaded for simulation (load_dataset) has the files the simulator
+reads checked against its manifest once per process: the MJCF's hash, module.json's
+manifest fields (id, seed, params, checks, file hashes) and its frames, clearance and peg
+mass properties against the verified MJCF's (assetgen.core.mjcf_record). The PhysX engine
+verifies the USD it reads (verify_module_files), an assembly's evaluation its assembly.xml
+and part STLs. A file changed after generation thus fails with one line naming the module,
+the file and `assetgen check DATASET --repair`, instead of being simulated under the
+dataset's unchanged content hash. `load_dataset(..., verify=False)` or the environment
+variable ASSETGEN_SKIP_VERIFY=1 skips it.
 """
 
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,6 +28,7 @@ import numpy as np
 
 from assetgen.core.inline_mesh import MJCF_FILE, module_meshes
 from assetgen.core.mesh import Mesh
+from assetgen.core.mjcf_record import meta_mismatch
 from assetgen.core.rotations import quat_to_matrix
 
 
@@ -91,8 +104,82 @@ def read_module_file(path: Path) -> bytes:
         ) from e
 
 
-def load_module(module_dir: Path | str) -> ModuleAsset:
-    """Read one module folder (module.json, and the meshes in peg_in_hole.xml) and check it."""
+SKIP_VERIFY_ENV = "ASSETGEN_SKIP_VERIFY"
+"""Set to 1 to skip checking a dataset's files against its manifest when loading it for
+simulation (see the module doc)."""
+
+_verified: dict[tuple, set[tuple[str, str]]] = {}
+"""(dataset folder, manifest inode, mtime and size) -> the (module id, file) pairs this
+process has verified: each dataset is checked once per process while its manifest stands."""
+
+
+def verify_skipped(verify: bool = True) -> bool:
+    """Whether verification is off: `verify` False or ASSETGEN_SKIP_VERIFY set (not 0)."""
+    return not verify or os.environ.get(SKIP_VERIFY_ENV, "").strip() not in ("", "0")
+
+
+def _verified_set(ds) -> set[tuple[str, str]]:
+    """The pairs verified so far of dataset `ds` (an assetgen.dataset.reader.Dataset)."""
+    try:
+        st = (ds.root / "manifest.jsonl").stat()
+        key = (str(ds.root.resolve()), st.st_ino, st.st_mtime_ns, st.st_size)
+    except OSError:
+        key = (str(ds.root.resolve()), None, None, None)
+    return _verified.setdefault(key, set())
+
+
+def tampered(root: Path | str, mid: str, problem: str) -> AssetError:
+    """The one-line error of module `mid` of dataset `root` whose file is not as generated."""
+    return AssetError(
+        f"{root}: module {mid}: {problem} (changed after generation); "
+        f"run `assetgen check {root} --repair` to regenerate it"
+    )
+
+
+def verify_module_files(module_dirs: Iterable[Path | str], names: Iterable[str]) -> None:
+    """Check files `names` of each module folder (modules/<id>/ of a dataset) against the
+    hashes its dataset's manifest records (module.json: the fields the manifest records of
+    it), once per process; AssetError naming the module,
+    the file and `assetgen check --repair` for the first that differs. A folder outside a
+    dataset (no dataset.json two levels up) is not checked; nor is anything when
+    ASSETGEN_SKIP_VERIFY is set."""
+    from assetgen.dataset.reader import Dataset
+    from assetgen.dataset.spec import DatasetError
+
+    if verify_skipped():
+        return
+    names = tuple(names)
+    datasets: dict[Path, object] = {}
+    for d in map(Path, module_dirs):
+        root = d.parent.parent
+        if not (root / "dataset.json").exists():
+            continue
+        if root not in datasets:
+            try:
+                datasets[root] = Dataset(root)
+            except DatasetError as e:
+                raise AssetError(str(e)) from e
+        ds = datasets[root]
+        done = _verified_set(ds)
+        for name in names:
+            if (d.name, name) in done:
+                continue
+            if d.name not in ds.records:
+                raise tampered(root, d.name, "the manifest does not list this module")
+            if name == "module.json":  # no hash: what the manifest records of it
+                problem = _meta_problem(ds.records[d.name], d / name)
+            else:
+                problem = ds.file_problem(d.name, name)
+            if problem:
+                raise tampered(root, d.name, problem)
+            done.add((d.name, name))
+
+
+def load_module(module_dir: Path | str, record: dict | None = None) -> ModuleAsset:
+    """Read one module folder (module.json, and the meshes in peg_in_hole.xml) and check it.
+
+    record: the module's manifest line; given, the files read are verified against it (see
+    the module doc) and AssetError names the first that is not as generated."""
     d = Path(module_dir)
     meta_path = d / "module.json"
     try:
@@ -117,7 +204,10 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
             f"{mjcf}: missing; the simulator reads the meshes from the MJCF (generate the "
             "dataset with the `mjcf` format, the default)"
         )
-    peg_mesh, pieces = read_meshes(read_module_file(mjcf), str(mjcf))
+    data = read_module_file(mjcf)
+    if record is not None:
+        _verify_read(d, meta, data, record)
+    peg_mesh, pieces = read_meshes(data, str(mjcf))
     return ModuleAsset(
         id=str(meta.get("id", d.name)),
         clearance=clearance,
@@ -130,6 +220,33 @@ def load_module(module_dir: Path | str) -> ModuleAsset:
         pieces=pieces,
         folder=d,
     )
+
+
+def _meta_problem(record: dict, path: Path) -> str | None:
+    from assetgen.dataset.reader import record_mismatch
+
+    try:
+        return record_mismatch(record, json.loads(path.read_bytes()))
+    except (OSError, ValueError) as e:
+        return f"module.json cannot be read ({e})"
+
+
+def _verify_read(d: Path, meta: dict, mjcf: bytes, record: dict) -> None:
+    """The checks of `load_module(d, record)` on the bytes it read."""
+    import hashlib
+
+    from assetgen.dataset.reader import record_mismatch
+
+    digest = record.get("files", {}).get(MJCF_FILE)
+    problem = (
+        f"{MJCF_FILE} has no hash in the manifest"
+        if digest is None
+        else f"{MJCF_FILE} does not match the hash the manifest records"
+        if hashlib.sha256(mjcf).hexdigest() != digest
+        else record_mismatch(record, meta) or meta_mismatch(meta, mjcf, MJCF_FILE)
+    )
+    if problem:
+        raise tampered(d.parent.parent, d.name, problem)
 
 
 def check_physics(root: Path | str, keep: bool = False):
@@ -173,8 +290,13 @@ def dataset_root(dataset: str | Path) -> Path:
         raise ValueError(str(e)) from e
 
 
-def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleAsset]:
-    """Every module of a dataset folder (or the listed ids), checked before simulation."""
+def load_dataset(
+    root: Path | str, ids: list[str] | None = None, *, verify: bool = True
+) -> list[ModuleAsset]:
+    """Every module of a dataset folder (or the listed ids), checked before simulation.
+
+    verify: check the files read against the manifest, once per process (see the module
+    doc); False, or the environment variable ASSETGEN_SKIP_VERIFY=1, skips it."""
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import DatasetError
 
@@ -189,4 +311,12 @@ def load_dataset(root: Path | str, ids: list[str] | None = None) -> list[ModuleA
             f"{root} holds no finished modules; generate some with "
             "`assetgen sample --n N --out DIR`"
         )
-    return [load_module(p) for p in dirs]
+    if verify_skipped(verify):
+        return [load_module(p) for p in dirs]
+    done = _verified_set(ds)
+    out = []
+    for mid, d in zip(wanted, dirs, strict=True):
+        fresh = (mid, "module.json") not in done
+        out.append(load_module(d, ds.records[mid] if fresh else None))
+        done.update({(mid, "module.json"), (mid, MJCF_FILE)})
+    return out

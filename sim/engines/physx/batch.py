@@ -28,10 +28,10 @@ import numpy as np
 
 from assetgen.core.mujoco_config import velocity_gains
 from assetgen.core.rotations import quat_to_matrix
-from sim.assets.loading import AssetError, ModuleAsset
+from sim.assets.loading import AssetError, ModuleAsset, verify_module_files
 from sim.engines.base import EngineOptions, EngineSim
 from sim.engines.physx.config import PhysxConfig
-from sim.engines.physx.usd_module import UsdModule, load_usd_module
+from sim.engines.physx.usd_module import USD_FILE, UsdModule, load_usd_module
 from sim.task import kernel as K
 from sim.task.config import PhysicsConfig, TaskConfig
 
@@ -236,6 +236,9 @@ class PhysxBatchSim(EngineSim):
         self._entities = []
         self._drives = []
         self.usd: list[UsdModule] = []
+        # the USD it reads, checked against the dataset's manifest (once per process)
+        folders = {a.folder for a in env_assets if a.folder is not None}
+        verify_module_files(sorted(folders), (USD_FILE,))
         for e, asset in enumerate(env_assets):
             if asset.folder is None:
                 raise ValueError(
