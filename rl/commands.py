@@ -106,6 +106,7 @@ TRAIN_NUMBERS = {
     "module_replay": share(
         "give the share of modules drawn by their failures, in (0, 1], e.g. 0.5"
     ),
+    "near_starts": share("give the share of episodes that start near the hole, in (0, 1]"),
     "threads": count(),
     "probe_steps": count("give a positive number of steps"),
     "checkpoint_minutes": positive("give a positive, finite number of minutes"),
@@ -210,6 +211,13 @@ def add_train_parser(
         help="draw SHARE (in (0, 1]) of the next modules weighted by their recent failure "
         "rate instead of in turn (prioritized level replay; sim/task/module_replay.py)",
     )
+    p.add_argument(
+        "--near-starts",
+        type=float,
+        metavar="SHARE",
+        help="start SHARE (in (0, 1]) of the training episodes near the hole, at 5 %% of the "
+        "full spawn ranges, whatever the curriculum (the rest as without it)",
+    )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument(
         "--threads",
@@ -304,6 +312,9 @@ def train_main(
         replay = getattr(args, "module_replay", None)
         if replay is not None:
             gate["module_replay"] = replay
+        near = getattr(args, "near_starts", None)
+        if near is not None:
+            gate["near_starts"] = near
         teacher = None
         demos = getattr(args, "demos", None)
         if demos is not None:

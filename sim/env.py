@@ -306,12 +306,16 @@ class PegInHoleVecEnv:
         if self.rotate_modules:
             self.rotate_envs(idx)
         cfg = self.cfg
+        scale: float | np.ndarray = self.curriculum_scale()
+        if cfg.near_starts is not None:  # a share of the episodes starts near the hole
+            near = self.rng.random(len(idx)) < cfg.near_starts
+            scale = np.where(near, cfg.near_start_scale, scale)
         pos, quat = T.sample_spawn(
             self.rng,
             self.entrance[idx, :3, 3],
             self._entrance_quat[idx],
             self.peg_vertices[idx],
-            self.curriculum_scale(),
+            scale,
             cfg,
         )
         self.sim.set_pose(idx, pos, quat)
@@ -581,6 +585,7 @@ def train_config(
     keep_physics: bool = False,
     curriculum_success: float | None = None,
     module_replay: float | None = None,
+    near_starts: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -594,6 +599,8 @@ def train_config(
         config = replace(config, curriculum_success=float(curriculum_success)).validate()
     if module_replay is not None:
         config = replace(config, module_replay=float(module_replay)).validate()
+    if near_starts is not None:
+        config = replace(config, near_starts=float(near_starts)).validate()
     return root, config
 
 
@@ -606,6 +613,7 @@ def make_train_env(
     engine: str = DEFAULT_ENGINE,
     curriculum_success: float | None = None,
     module_replay: float | None = None,
+    near_starts: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -615,9 +623,9 @@ def make_train_env(
     simulated with the physics its files carry). engine: a registered engine's name (physx,
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
-    task on the device)."""
+    task on the device). near_starts: TaskConfig.near_starts."""
     root, config = train_config(
-        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
+        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts
     )
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine

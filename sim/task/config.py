@@ -55,6 +55,13 @@ class TaskConfig:
     """Step of the success-gated curriculum, a fraction of the full spawn ranges."""
     curriculum_window: int = 256
     """Finished training episodes between two decisions of the success-gated curriculum."""
+    near_starts: float | None = None
+    """If set (in (0, 1]), this share of the training episodes starts near the hole: spawned at
+    `near_start_scale` of the full ranges, whatever the curriculum's scale, so that an agent
+    that has stopped exploring still meets insertions it can complete (the rest spawn as
+    without it). None draws nothing more: the episodes are those of a run without it."""
+    near_start_scale: float = 0.05
+    """The fraction of the full spawn ranges that near starts are drawn in."""
     module_replay: float | None = None
     """If set (in (0, 1]), a rotating env draws this share of its next modules weighted by
     their recent failure rate instead of taking them in turn (sim/task/module_replay.py)."""
@@ -103,6 +110,9 @@ class TaskConfig:
             or 0.0 < self.curriculum_success <= 1.0,
             "0 < curriculum_increment <= 1": 0.0 < self.curriculum_increment <= 1.0,
             "curriculum_window >= 1": self.curriculum_window >= 1,
+            "near_starts is None or in (0, 1]": self.near_starts is None
+            or 0.0 < self.near_starts <= 1.0,
+            "0 <= near_start_scale <= 1": 0.0 <= self.near_start_scale <= 1.0,
             "module_replay is None or in (0, 1]": self.module_replay is None
             or 0.0 < self.module_replay <= 1.0,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],

@@ -229,7 +229,7 @@ def sample_spawn(
     entrance_pos: np.ndarray,
     entrance_quat: np.ndarray,
     vertices: np.ndarray,
-    scale: float,
+    scale: float | np.ndarray,
     cfg: TaskConfig,
     min_clearance: float = 0.001,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -239,11 +239,16 @@ def sample_spawn(
     random axis by U(0, scale * spawn_max_angle). A peg whose lowest point would be less
     than `min_clearance` above the mounting surface is raised to that height (only tall
     pegs spawned upside down near the lowest height, or every peg at scale 0, whose bottom
-    would sit exactly at the entrance)."""
+    would sit exactly at the entrance). scale: one for every peg, or (n,) one each."""
     n = len(entrance_pos)
     offset = np.empty((n, 4))
     offset[:, 0] = 0.0
-    offset[:, 1:3] = rng.uniform(-1.0, 1.0, (n, 2)) * cfg.spawn_xy * scale
+    per_peg = np.ndim(scale) > 0
+    offset[:, 1:3] = (
+        rng.uniform(-1.0, 1.0, (n, 2))
+        * cfg.spawn_xy
+        * (np.asarray(scale)[:, None] if per_peg else scale)
+    )
     offset[:, 3] = rng.uniform(*cfg.spawn_z, n) * scale
     angle = rng.uniform(0.0, 1.0, n) * cfg.spawn_max_angle * scale
     turn = np.empty((n, 4))

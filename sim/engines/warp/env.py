@@ -64,6 +64,11 @@ class WarpTorchVecEnv:
         device: str | None = None,
         check_every: int = 64,
     ) -> None:
+        if config is not None and config.near_starts is not None:
+            raise ValueError(
+                "near_starts (--near-starts): starts near the hole for a share of the episodes "
+                "run in the host env only (PegInHoleVecEnv: --sim mujoco or physx)"
+            )
         if config is not None and config.module_replay is not None:
             raise ValueError(
                 "module_replay (--module-replay): modules replayed by their failures run in "
@@ -419,12 +424,13 @@ def make_device_train_env(
     engine: str = ENGINE,
     curriculum_success: float | None = None,
     module_replay: float | None = None,
+    near_starts: float | None = None,
 ) -> WarpTorchVecEnv:
     """sim.env.make_train_env's env on the device: the same task, modules in turns."""
     if engine != ENGINE:
         raise ValueError(f"engine = {engine!r}: the env on the device runs on {ENGINE}")
     # WarpTorchVecEnv refuses a success-gated curriculum: it runs in the host env only
     root, config = train_config(
-        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay
+        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts
     )
     return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
