@@ -6,6 +6,8 @@ measures that against the two other ways it could read them, on the same modules
   vertices in one array, faces in another, and the counts), split back into meshes: the
   fastest plausible binary form, which the layout would need as a seventh file;
 - `mjspec`: MuJoCo's own parser (`MjSpec.from_file`) and the meshes from the spec.
+It also times the simulator's own read with the files checked against the manifest
+(`verified_ms`; a run checks each module once per process), and the share that costs.
 
     assetgen bench load [--dataset test] [--n 256] [--json]
 """
@@ -73,6 +75,10 @@ def bench_load(dataset: str | Path, n: int = 256, rounds: int = 3) -> dict:
             [(np.asarray(m.uservert), np.asarray(m.userface)) for m in spec.meshes]
 
         mjcf = _per_module_ms(load_module, dirs, rounds)
+        # the same with the files checked against the manifest (once per process in a run)
+        verified = _per_module_ms(
+            lambda mid: load_module(ds.module_dir(mid), ds.records[mid]), ds.ids[:n], rounds
+        )
         npz = _per_module_ms(read_packed, packed, rounds)
         mjspec = _per_module_ms(read_mjspec, dirs, rounds)
     return {
@@ -81,6 +87,9 @@ def bench_load(dataset: str | Path, n: int = 256, rounds: int = 3) -> dict:
         "packed_ms": npz,
         "mjspec_ms": mjspec,
         "mjcf_over_packed": mjcf / npz,
+        "verified_ms": verified,
+        "verify_share": (verified - mjcf) / verified,
         "dataset_load_s_mjcf": mjcf * len(ds) / 1e3,
         "dataset_load_s_packed": npz * len(ds) / 1e3,
+        "dataset_verify_s": (verified - mjcf) * len(ds) / 1e3,
     }
