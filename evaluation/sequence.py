@@ -285,14 +285,15 @@ def save_sequence(
 
 
 def is_assembly_dataset(dataset: str | Path) -> bool:
-    """Whether `dataset` (a spec name or a folder) holds assemblies (a family other than
-    Table I's peg-in-hole), which `assetgen eval` plays in sequence."""
+    """Whether `dataset` (a spec name or a folder) holds assemblies (a family of the assembly
+    layout), which `assetgen eval` plays in sequence."""
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import DatasetError
+    from assetgen.families.registry import is_assembly
     from sim.assets.loading import dataset_root
 
     try:
-        return Dataset(dataset_root(dataset)).spec.family != "peg-in-hole"
+        return is_assembly(Dataset(dataset_root(dataset)).spec.family)
     except DatasetError:
         return False  # not a dataset: the caller's own loading says why
 

@@ -29,6 +29,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from assetgen.dataset.reader import Dataset
+from assetgen.families.registry import is_assembly
 from preview import nodes
 from preview.browse import TILT_MAX_DEG, BrowseMixin
 from preview.episode import Episode
@@ -291,7 +292,7 @@ def serve(
     console = console or Console(stderr=True)
     try:
         ds = open_dataset(dataset)
-        assembly = ds.spec.family != "peg-in-hole"
+        assembly = is_assembly(ds.spec.family)
     except PreviewError:
         assembly = False  # the Table I viewer reports it in the page and keeps serving
     if assembly and policy is not None:

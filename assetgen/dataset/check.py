@@ -24,6 +24,7 @@ from assetgen.dataset.generate import check_formats, generate, write_info
 from assetgen.dataset.module_writer import module_id, sha256
 from assetgen.dataset.reader import Dataset, manifest_line, read_manifest, record_mismatch
 from assetgen.dataset.spec import SPECS_DIR, DatasetError, DatasetSpec
+from assetgen.families.registry import DEFAULT_FAMILY, is_assembly
 
 
 @dataclass
@@ -62,11 +63,15 @@ def _check_module(folder: Path, record: dict, geometry_checks: bool) -> str | No
             return f"{name} is missing"
         if sha256(path) != digest:
             return f"{name} does not match its hash"
-    if meta.get("family", "peg-in-hole") == "peg-in-hole" and MJCF_FILE in record["files"]:
+    try:
+        assembly = is_assembly(meta.get("family", DEFAULT_FAMILY))
+    except ValueError as e:
+        return f"module.json: {e}"
+    if not assembly and MJCF_FILE in record["files"]:
         problem = meta_mismatch(meta, (folder / MJCF_FILE).read_bytes(), MJCF_FILE)
         if problem:
             return problem
-    if geometry_checks and meta.get("family", "peg-in-hole") != "peg-in-hole":
+    if geometry_checks and assembly:
         return _check_assembly(folder, meta)
     if geometry_checks:
         travel = meta["checks"]["insertion_travel_m"]
@@ -198,7 +203,7 @@ def _reproduces(spec: DatasetSpec, records: dict[str, dict], root: Path) -> bool
             metas.append(json.loads((root / "modules" / r["id"] / "module.json").read_text()))
         except (OSError, ValueError):
             metas.append({})
-    if any(m.get("family", "peg-in-hole") != spec.family for m in metas):
+    if any(m.get("family", DEFAULT_FAMILY) != spec.family for m in metas):
         return False
     try:
         for r, meta in zip(first, metas, strict=True):
@@ -243,7 +248,7 @@ def recover_spec(root: Path, records: dict[str, dict]) -> DatasetSpec | None:
     first = records[min(records)]
     try:
         meta = json.loads((root / "modules" / first["id"] / "module.json").read_text())
-        fam = family(meta.get("family", "peg-in-hole"))
+        fam = family(meta.get("family", DEFAULT_FAMILY))
     except (OSError, ValueError):
         fam = None
     if fam is not None:

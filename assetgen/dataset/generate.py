@@ -12,6 +12,7 @@ manifest and the content hash need).
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import time
@@ -27,6 +28,8 @@ from assetgen.core.mujoco_config import physics_for, physics_record
 from assetgen.core.timing import StepTimes, add_times
 from assetgen.dataset.reader import content_hash, manifest_line, read_manifest
 from assetgen.dataset.spec import DatasetError, DatasetSpec
+from assetgen.families.registry import DEFAULT_FAMILY
+from assetgen.families.registry import get as get_family
 
 if TYPE_CHECKING:
     from assetgen.dataset.module_writer import ModuleFailure
@@ -278,7 +281,7 @@ def _generate(root, spec, workers, overwrite, progress, cluster, t0) -> RunSumma
     return summary
 
 
-def _import_exporters(formats: tuple[str, ...], family: str = "peg-in-hole") -> None:
+def _import_exporters(formats: tuple[str, ...], family: str = DEFAULT_FAMILY) -> None:
     """Import what the exporters import lazily (MuJoCo, USD) and load the compiled kernels
     of the build and the decomposition (numba: ~0.3 s to import, ~0.3 s to load) before
     forking, so the workers share them instead of each paying for them on its first
@@ -286,8 +289,8 @@ def _import_exporters(formats: tuple[str, ...], family: str = "peg-in-hole") -> 
     import assetgen.formats.registry  # registers the formats
     from assetgen.collision.cell_meshes import warm_up
 
-    if family != "peg-in-hole":  # an assembly's writer, with its decomposition and MJCF
-        import assetgen.dataset.assembly_writer
+    # the family's writer (an assembly's brings its decomposition and MJCF)
+    importlib.import_module(get_family(family).layout.writer.partition(":")[0])
     warm_up()  # every module's build enumerates vertices, and most decompose
 
     if "mjcf" in formats:

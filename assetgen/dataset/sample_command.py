@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 from assetgen.core.preflight import Bound, count
@@ -109,7 +108,6 @@ def sample_spec(args: argparse.Namespace):
     from assetgen.dataset.families import family
     from assetgen.dataset.spec import DatasetError, DatasetSpec, resolve
     from assetgen.formats.registry import available_formats
-    from assetgen.params.sampler import SamplerConfig
 
     if args.dataset:
         if args.out or args.n is not None:
@@ -127,10 +125,8 @@ def sample_spec(args: argparse.Namespace):
     except ValueError as e:
         raise DatasetError(str(e)) from None
     config = fam.sampler()
-    if args.clearance_mm is not None:
-        # the clearance of the family's first step (Table I's only one; the profile's)
-        key = "clearance" if isinstance(config, SamplerConfig) else "profile_clearance"
-        config = replace(config, **{key: args.clearance_mm / 1000.0})
+    if args.clearance_mm is not None:  # the family's first step's clearance
+        config = config.with_clearance(args.clearance_mm / 1000.0)
     formats = tuple(args.formats.split(",")) if args.formats else available_formats()
     spec = DatasetSpec(
         name=Path(args.out).name,

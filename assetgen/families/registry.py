@@ -17,7 +17,7 @@ import importlib
 import pkgutil
 from pathlib import Path
 
-from assetgen.families.interface import Family
+from assetgen.families.interface import ASSEMBLY, Family
 
 DEFAULT_FAMILY = "peg-in-hole"
 """The family of a dataset that names none (every Table I dataset)."""
@@ -68,6 +68,13 @@ def get(name: str) -> Family:
     if not isinstance(family, Family) or family.name != name:
         raise TypeError(f"{found[name]}.FAMILY must be a Family named {name!r}, not {family!r}")
     return family
+
+
+def is_assembly(name: str) -> bool:
+    """Whether the family `name` builds assemblies (the ASSEMBLY layout: parts inserted step
+    by step, checked, simulated and shown as such), not Table I modules; ValueError for an
+    unknown name."""
+    return get(name).layout is ASSEMBLY
 
 
 def describe() -> list[dict]:

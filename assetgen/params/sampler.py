@@ -8,7 +8,7 @@ every machine and independently of how many modules a run makes.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -50,6 +50,10 @@ class SamplerConfig:
     def finest_clearance(self) -> float:
         """The finest clearance of a module, m (its only one): it sets the physics' timestep."""
         return self.clearance
+
+    def with_clearance(self, clearance: float) -> SamplerConfig:
+        """This config with the module's clearance set, m (`sample --clearance-mm`)."""
+        return replace(self, clearance=clearance)
 
     def validate(self) -> SamplerConfig:
         if not 0.0 <= self.polygon_probability <= 1.0:

@@ -210,7 +210,9 @@ def report(
 
     ds = Dataset(root)
     ids = list(ds.ids)[:limit]
-    if ds.spec.family == "peg-in-hole":
+    from assetgen.families.registry import is_assembly
+
+    if not is_assembly(ds.spec.family):
         if timestep is not None:
             raise ValueError("--timestep is for assembly datasets (Table I: docs/physics.md)")
         jobs: list = [ds.paths(mid)["mjcf"] for mid in ids]

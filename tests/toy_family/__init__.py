@@ -10,7 +10,7 @@ simulator on it.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -75,6 +75,10 @@ class CubePegSampler:
     def finest_clearance(self) -> float:
         """The finest clearance of a module, m (its only one)."""
         return self.clearance
+
+    def with_clearance(self, clearance: float) -> CubePegSampler:
+        """This config with the peg's clearance set, m."""
+        return replace(self, clearance=clearance)
 
     def validate(self) -> CubePegSampler:
         for corner in (0, 1):

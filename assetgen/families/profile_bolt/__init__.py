@@ -302,6 +302,10 @@ class ProfileBoltSampler:
         """The finest clearance of the steps, m: it sets the physics' timestep."""
         return min(self.profile_clearance, self.bolt_clearance)
 
+    def with_clearance(self, clearance: float) -> ProfileBoltSampler:
+        """This config with the first step's (the profile's) clearance set, m."""
+        return replace(self, profile_clearance=clearance)
+
     def validate(self) -> ProfileBoltSampler:
         """Ranges are two finite numbers, low <= high, and both corners build."""
         for f in fields(self):
