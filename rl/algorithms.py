@@ -8,7 +8,7 @@ algorithm is a new entry here, its config, its agent in build_agent and its pres
 
 from __future__ import annotations
 
-import importlib
+from assetgen.core.references import load_reference
 
 ALGOS: dict[str, str] = {
     "ppo": "rl.configs:PPOConfig",
@@ -21,5 +21,4 @@ ALGOS: dict[str, str] = {
 
 def config_class(algo: str) -> type:
     """The config class of `algo`; KeyError for a name that is not registered."""
-    module, _, attr = ALGOS[algo].partition(":")
-    return getattr(importlib.import_module(module), attr)
+    return load_reference(ALGOS[algo])

@@ -78,13 +78,11 @@ def flag_words(message: str) -> str:
 
 
 def print_error(message: str) -> int:
-    """Print a one-line error for the user on stderr; exit code 2."""
-    from rich.console import Console
-    from rich.markup import escape
+    """Print a one-line error for the user on stderr, library names as the command line
+    spells them (flag_words); exit code 2."""
+    from assetgen.core.console_output import print_error as print_line
 
-    err = Console(stderr=True)
-    err.print(f"[bold red]error:[/] {escape(flag_words(message))}", highlight=False, soft_wrap=True)
-    return 2
+    return print_line(flag_words(message))
 
 
 def torch_threads(threads: int | None) -> int:

@@ -15,6 +15,7 @@ from sim.engines.base import EngineSim
 from sim.engines.registry import (
     DEFAULT_ENGINE,
     ENGINES,
+    REFERENCE_FIELDS,
     add_engine_argument,
     engine_names,
     get_engine,
@@ -41,8 +42,7 @@ def test_every_entry_names_what_exists() -> None:
     its simulation class fills in the one interface."""
     assert engine_names()[0] == DEFAULT_ENGINE
     for spec in ENGINES.values():
-        for field in ("sim", "stress", "settings", "device_env", "train_env",
-                      "device_check"):  # fmt: skip
+        for field in REFERENCE_FIELDS:
             ref = getattr(spec, field)
             if ref is None:
                 continue

@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from assetgen.core.references import load_reference
 from assetgen.families import registry
-from assetgen.families.interface import ASSEMBLY, MODULE, Family, parameters, resolve
+from assetgen.families.interface import ASSEMBLY, MODULE, Family, parameters
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,7 +34,7 @@ def test_every_layout_reference_resolves():
     pytest.importorskip("viser")
     for layout in (MODULE, ASSEMBLY):
         for stage, ref in layout.references().items():
-            assert callable(resolve(ref)), (layout.name, stage, ref)
+            assert callable(load_reference(ref)), (layout.name, stage, ref)
 
 
 def test_every_sampler_field_is_documented():
@@ -120,6 +121,24 @@ def test_a_family_plugs_in_as_one_folder(toy, tmp_path):
 
     view = AssemblyView.load(ds, "000001")
     assert view.parts == ["peg"] and set(view.surfaces) == {"base", "peg"}
+
+
+def test_the_layout_not_the_name_says_what_a_family_builds(toy, tmp_path, capsys):
+    """A family is an assembly by its layout: the toy one is, Table I is not; and `sample
+    --clearance-mm` sets any family's first clearance through its sampler."""
+    import cli
+    from assetgen.dataset.reader import Dataset
+
+    assert registry.is_assembly("cube-peg") and registry.is_assembly("profile-bolt")
+    assert not registry.is_assembly(registry.DEFAULT_FAMILY)
+    with pytest.raises(ValueError, match="unknown family 'nope'"):
+        registry.is_assembly("nope")
+    out = tmp_path / "toy"
+    argv = ["sample", "--family", "cube-peg", "--n", "1", "--clearance-mm", "0.5",
+            "--workers", "1", "--out", str(out)]  # fmt: skip
+    assert cli.main(argv) == 0, capsys.readouterr().err
+    assert Dataset(out).spec.config.clearance == pytest.approx(0.5e-3)
+    assert Dataset(out).module_json("000000")["params"]["clearance"] == pytest.approx(0.5e-3)
 
 
 def test_registry_after_the_toy_is_gone():

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from assetgen.core.references import load_reference
 from assetgen.core.timing import StepTimes
-from assetgen.families.interface import Family, resolve
+from assetgen.families.interface import Family
 from assetgen.families.registry import DEFAULT_FAMILY, get
 
 if TYPE_CHECKING:
@@ -51,7 +52,7 @@ class FamilyWriter:
         """Write module `seed` under `config` into modules_dir/<id>/ and return its
         module.json; ModuleFailure (nothing written) when it cannot be built or fails a
         check. `formats` are Table I's exporters (an assembly writes all of its files)."""
-        writer = resolve(self.spec.layout.writer)
+        writer = load_reference(self.spec.layout.writer)
         if self.spec.layout.name == "module":
             return writer(seed, config, modules_dir, formats, times)
         from assetgen.dataset.module_writer import ModuleFailure

@@ -6,27 +6,28 @@ A family is one folder, `assetgen/families/<name>/` (its `__init__.py` defines `
 - **parameters**: `sampler`, a frozen dataclass whose fields are the ranges of the sampled
   parameters, each documented by the string under it (`assetgen families` prints them), with
   `sample(seed) -> params`, `validate()`, `to_json()` and `from_json(d)` (a dataset's
-  dataset.json stores it); and `params`, the frozen dataclass of one draw, with
+  dataset.json stores it), `clearance` and `finest_clearance` (m: the first step's and the
+  finest step's) and `with_clearance(m)` (the config with the first step's clearance set:
+  `sample --clearance-mm`); and `params`, the frozen dataclass of one draw, with
   `validate()`, `to_json()` and `from_json(d)` (module.json stores it).
 - **build**: `build(params)`, the pure function from one draw to its parts: solids and
   frames. For the `assembly` layout it returns an `Assembly` (assetgen.families.parts:
   parts made of convex solids and holes, and the steps that insert them); for the `module`
   layout (Table I) a ModuleGeometry (assetgen.geometry.solids).
-- **the later stages**, through its `layout`: how its modules are checked, cut into
-  collision pieces, written, loaded in the simulator and shown in the viewer. A layout names
-  each of them as "module:attribute". Families stage code may not import the later stages
+- **the later stages**, through its `layout`: how its modules are checked, cut into collision
+  pieces, written, loaded in the simulator and shown in the viewer. A layout names each of them
+  as "module:attribute". Families stage code may not import the later stages
   (tests/test_layout.py), so they are references, resolved where they are used
-  (`resolve`). Two layouts exist: MODULE (Table I, one peg and a plate; its files are the
-  paper's) and ASSEMBLY (any `Assembly`: its writer, checks, collision pieces, simulator
-  loading and preview are common to every family that builds one). A new family that builds
-  an Assembly needs nothing beyond its folder.
+  (assetgen.core.references.load_reference). Two layouts exist: MODULE (Table I, one peg and a
+  plate; its files are the paper's) and ASSEMBLY (any `Assembly`: its writer, checks, collision
+  pieces, simulator loading and preview are common to every family that builds one). A new
+  family that builds an Assembly needs nothing beyond its folder.
 """
 
 from __future__ import annotations
 
 import ast
 import dataclasses
-import importlib
 import inspect
 import textwrap
 from collections.abc import Callable
@@ -37,7 +38,7 @@ from typing import Any
 @dataclass(frozen=True)
 class Layout:
     """The later stages a family's modules go through, each a "module:attribute" reference
-    (resolve(ref) imports it).
+    (assetgen.core.references.load_reference imports it).
 
     name      : "module" or "assembly"; recorded nowhere in the files (a dataset records its
                 family, and the family its layout).
@@ -103,12 +104,6 @@ class Family:
     params: type
     build: Callable[[Any], Any]
     layout: Layout = ASSEMBLY
-
-
-def resolve(reference: str) -> Any:
-    """The object a "module:attribute" reference names (importing its module)."""
-    module, _, attribute = reference.partition(":")
-    return getattr(importlib.import_module(module), attribute)
 
 
 @dataclass(frozen=True)

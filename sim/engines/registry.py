@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import argparse
 import functools
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
+
+from assetgen.core.references import load_reference
 
 
 @dataclass(frozen=True)
@@ -55,15 +56,17 @@ class Engine:
     """Plays assemblies stage by stage (evaluation of assembly datasets)."""
 
     def load(self, field: str) -> Any:
-        """The object that `field` ("sim", "stress", "settings", "device_env") names."""
+        """The object that `field`, one of REFERENCE_FIELDS, names."""
+        if field not in REFERENCE_FIELDS:
+            raise ValueError(f"{field!r} is not one of an engine's fields {REFERENCE_FIELDS}")
         ref = getattr(self, field)
-        if not isinstance(ref, str | None) or field == "name":
-            raise ValueError(f"{field!r} is not one of an engine's module:attribute fields")
         if ref is None:
             raise ValueError(f"engine {self.name!r} has no {field}")
-        module, _, attr = ref.partition(":")
-        return getattr(importlib.import_module(module), attr)
+        return load_reference(ref)
 
+
+REFERENCE_FIELDS = ("sim", "stress", "settings", "device_env", "train_env", "device_check")
+"""The fields of an Engine that name code as "module:attribute" (Engine.load)."""
 
 DEFAULT_ENGINE = "mujoco"
 
