@@ -31,7 +31,7 @@ import numpy as np
 
 from assetgen.core.preflight import Bound, check_numbers, count, seed
 from evaluation.protocol import Policy
-from rl.commands import MakeEnv, print_error, torch_threads
+from rl.commands import MakeEnv, engine_options, print_error, torch_threads
 from sim.engines.registry import add_engine_argument, get_engine
 
 SNAPSHOT_EVERY_S = 300.0
@@ -185,7 +185,7 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
             raise ValueError(f"--attempts {args.episodes}: give at least 1 episode per module")
         if limit is not None and limit < 1:
             raise ValueError(f"--modules {limit}: give at least 1 module, or leave it out")
-        on_engine = dict(getattr(args, "engine_options", None) or {})
+        on_engine = engine_options(args)
         if simulator:
             from evaluation.sequence import is_assembly_dataset
 

@@ -274,7 +274,7 @@ def add_train_parser(
     return p
 
 
-def _engine_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+def engine_options(args: argparse.Namespace) -> dict[str, Any]:
     """`engine=` for the env factories, as the engine flag (sim/engines/registry.py's
     add_engine_argument) left it: empty for the default engine."""
     return dict(getattr(args, "engine_options", None) or {})
@@ -324,7 +324,7 @@ def train_main(
             teacher = teachers[demos]()
         overrides = parse_overrides(args.algo, getattr(args, "set", None) or [])
         keep = bool(getattr(args, "keep_dataset_physics", False))
-        on_engine = _engine_kwargs(args)
+        on_engine = engine_options(args)
         probe, probe_steps = None, getattr(args, "probe_steps", None)
         if probe_steps is not None:
             if make_probe is None:
