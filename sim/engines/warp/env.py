@@ -416,21 +416,12 @@ class WarpTorchVecEnv:
 
 
 def make_device_train_env(
-    dataset: str,
-    num_envs: int,
-    seed: int,
-    curriculum_steps: int | None = None,
-    keep_physics: bool = False,
-    engine: str = ENGINE,
-    curriculum_success: float | None = None,
-    module_replay: float | None = None,
-    near_starts: float | None = None,
+    dataset: str, num_envs: int, seed: int, engine: str = ENGINE, **task: Any
 ) -> WarpTorchVecEnv:
-    """sim.env.make_train_env's env on the device: the same task, modules in turns."""
+    """sim.env.make_train_env's env on the device: the same task (`task`: train_config's
+    keywords), modules in turns."""
     if engine != ENGINE:
         raise ValueError(f"engine = {engine!r}: the env on the device runs on {ENGINE}")
-    # WarpTorchVecEnv refuses a success-gated curriculum: it runs in the host env only
-    root, config = train_config(
-        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts
-    )
+    # WarpTorchVecEnv refuses what runs in the host env only (a success-gated curriculum, ...)
+    root, config = train_config(dataset, **task)
     return WarpTorchVecEnv(root, num_envs, config, assignment_seed=seed, rotate_modules=True)
