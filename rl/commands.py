@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from assetgen.core.preflight import count, positive, seed, share
+from assetgen.core.preflight import Bound, count, positive, seed, share
 from rl.vec_env import VecEnv
 
 CHECKPOINT_FILE = "checkpoint.safetensors"
@@ -105,6 +105,7 @@ TRAIN_NUMBERS = {
         "give the share of modules drawn by their failures, in (0, 1], e.g. 0.5"
     ),
     "near_starts": share("give the share of episodes that start near the hole, in (0, 1]"),
+    "axis_shaping": Bound(low=0.0, hint="give a finite weight of 0 or more, e.g. 2"),
     "threads": count(),
     "probe_steps": count("give a positive number of steps"),
     "checkpoint_minutes": positive("give a positive, finite number of minutes"),
@@ -216,6 +217,14 @@ def add_train_parser(
         help="start SHARE (in (0, 1]) of the training episodes near the hole, at 5 %% of the "
         "full spawn ranges, whatever the curriculum (the rest as without it)",
     )
+    p.add_argument(
+        "--axis-shaping",
+        type=float,
+        metavar="W",
+        help="training shaping, not the paper's reward: add W times the peg's distance from "
+        "the hole's axis to the distance to the seat, so that sliding onto the axis pays "
+        "(>= 0; evaluation is unchanged)",
+    )
     p.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     p.add_argument(
         "--threads",
@@ -313,6 +322,9 @@ def train_main(
         near = getattr(args, "near_starts", None)
         if near is not None:
             gate["near_starts"] = near
+        axis = getattr(args, "axis_shaping", None)
+        if axis is not None:
+            gate["axis_shaping"] = axis
         teacher = None
         demos = getattr(args, "demos", None)
         if demos is not None:

@@ -292,7 +292,7 @@ class PegInHoleVecEnv:
         cfg = self.cfg
         d0 = T.seat_distance(
             pos, quat, f.bottom_pos[idx], f.bottom_quat_conj[idx], cfg.dist_pos_weight,
-            cfg.dist_rot_weight,
+            cfg.dist_rot_weight, cfg.dist_axis_weight, f.rows[idx, 5],
         )  # fmt: skip
         self._d0[idx] = np.maximum(d0, 1e-9)
         self._c_prev[idx] = 0.0
@@ -586,6 +586,7 @@ def train_config(
     curriculum_success: float | None = None,
     module_replay: float | None = None,
     near_starts: float | None = None,
+    axis_shaping: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -601,6 +602,8 @@ def train_config(
         config = replace(config, module_replay=float(module_replay)).validate()
     if near_starts is not None:
         config = replace(config, near_starts=float(near_starts)).validate()
+    if axis_shaping is not None:
+        config = replace(config, dist_axis_weight=float(axis_shaping)).validate()
     return root, config
 
 
@@ -614,6 +617,7 @@ def make_train_env(
     curriculum_success: float | None = None,
     module_replay: float | None = None,
     near_starts: float | None = None,
+    axis_shaping: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -623,9 +627,16 @@ def make_train_env(
     simulated with the physics its files carry). engine: a registered engine's name (physx,
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
-    task on the device). near_starts: TaskConfig.near_starts."""
+    task on the device). near_starts: TaskConfig.near_starts; axis_shaping:
+    TaskConfig.dist_axis_weight."""
     root, config = train_config(
-        dataset, curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts
+        dataset,
+        curriculum_steps,
+        keep_physics,
+        curriculum_success,
+        module_replay,
+        near_starts,
+        axis_shaping,
     )
     return PegInHoleVecEnv(
         root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine

@@ -41,6 +41,7 @@ class StepParams(NamedTuple):
 
     dist_pos_weight: float
     dist_rot_weight: float
+    dist_axis_weight: float
     success_radius: float
     failure_depth: float
     failure_reward: float
@@ -272,6 +273,7 @@ def score(
     neither success nor failure) and keeps its last observation, as PegInHoleVecEnv.step.
     """
     w_t, w_r, radius = params.dist_pos_weight, params.dist_rot_weight, params.success_radius
+    w_a = params.dist_axis_weight
     depth, fail_r, noisy = params.failure_depth, params.failure_reward, params.noise
     ps, rot_std = np.float32(params.obs_pos_noise), params.obs_rot_noise
     rows, origin, bottom_pos, bottom_quat_conj = (
@@ -300,6 +302,9 @@ def score(
         vy = aw * y + w * ay + (az * x - ax * z)
         vz = aw * z + w * az + (ax * y - ay * x)
         dist = w_t * math.sqrt(d2) + w_r * math.sqrt(8.0 * (vx * vx + vy * vy + vz * vz))
+        if w_a > 0.0:  # off the hole's axis (the bottom frame's z: R_b^T's last row)
+            along = dx * rows[i, 5, 0] + dy * rows[i, 5, 1] + dz * rows[i, 5, 2]
+            dist += w_a * math.sqrt(max(d2 - along * along, 0.0))
         c = 1.0 - math.sqrt(dist / d0[i])
         r = c - c_prev[i]
         ok = d2 < radius * radius and not bad_physics

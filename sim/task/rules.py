@@ -139,10 +139,14 @@ def seat_distance(
     bottom_quat_conj: np.ndarray,
     pos_weight: float,
     rot_weight: float,
+    axis_weight: float = 0.0,
+    axis: np.ndarray | None = None,
 ) -> np.ndarray:
     """(n,) d = w_t ||t|| + w_r ||R - I||_F of the peg-to-bottom transforms (t in metres),
     for poses pos (n, 3), quat (n, 4) (unit) and bottom frames with origins (n, 3) and
     inverse orientations (n, 4); w_t, w_r: TaskConfig.dist_pos_weight, dist_rot_weight.
+    With axis_weight (TaskConfig.dist_axis_weight) > 0, plus w_a times the distance of pos
+    from the hole's axis, the bottom frames' unit z axes (n, 3).
 
     ||t|| is the distance of the origins; ||R - I||_F = 2 sqrt(2) |sin(angle / 2)| =
     sqrt(8) ||vector part of the relative quaternion|| (exact near the seat, where
@@ -153,7 +157,11 @@ def seat_distance(
     a_v, q_v = bottom_quat_conj[:, 1:], quat[:, 1:]
     v = bottom_quat_conj[:, :1] * q_v + quat[:, :1] * a_v + cross3(a_v, q_v)
     r = np.sqrt(8.0 * np.einsum("ni,ni->n", v, v))
-    return pos_weight * t + rot_weight * r
+    out = pos_weight * t + rot_weight * r
+    if axis_weight > 0.0:
+        along = np.einsum("ni,ni->n", d, axis)
+        out += axis_weight * np.sqrt(np.maximum(t * t - along * along, 0.0))
+    return out
 
 
 def progress(d: np.ndarray, d0: np.ndarray) -> np.ndarray:
