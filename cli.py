@@ -103,6 +103,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "tensorboard": ("rl",),
     "matplotlib": ("rl",),
     "viser": ("view",),
+    "gymnasium_robotics": ("robot",),
 }
 """Top-level module -> the extras of pyproject.toml that install it."""
 COMMAND_EXTRA = {"view": "view", "train": "rl", "report": "rl", "eval": "rl", "export": "rl"}

@@ -65,7 +65,7 @@ def _add_mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.nd
     mesh.userface = faces.astype(int).ravel().tolist()
 
 
-def add_environment(
+def add_pieces(
     spec: mujoco.MjSpec,
     asset: ModuleAsset,
     physics: PhysicsConfig,
@@ -73,15 +73,9 @@ def add_environment(
     prefix: str = "",
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
     collision_bit: int = 1,
-    max_lin_vel: float = 0.25,
-    max_ang_vel: float = math.pi / 2,
 ) -> None:
-    """Add one module (static pieces), its peg (free body) and the six actuators to `spec`.
-
-    `offset` places the module origin in the world (shards hold many modules side by side);
-    `collision_bit` is the contype of the peg and the conaffinity of the pieces, so a peg
-    only touches modules that share its bit.
-    """
+    """Add one module's static convex pieces and its reference site (the module origin) to
+    `spec`; the pieces touch what has `collision_bit` in its contype."""
     solref = contact_solref(physics.dampratio, physics).tolist()
     solimp = list(physics.solimp)
     for i, piece in enumerate(asset.pieces):
@@ -103,15 +97,27 @@ def add_environment(
     ref.name = f"{prefix}{REF_SITE}"
     ref.pos = list(offset)
 
+
+def add_peg(
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    asset: ModuleAsset,
+    physics: PhysicsConfig,
+    *,
+    prefix: str = "",
+    collision_bit: int = 1,
+) -> None:
+    """Give the peg body `body` (its frame the peg frame: free, or fixed to a robot's hand)
+    the peg's geoms (one per convex piece), its inertia and the site at its frame's origin
+    (the bottom-face centre)."""
+    solref = contact_solref(physics.dampratio, physics).tolist()
+    solimp = list(physics.solimp)
     # a convex peg is one geom; a part that is not convex is one geom per convex piece,
     # `peg` then `peg_1`, `peg_2`, ... (contiguous ids: BatchSim sets them together)
     shapes = asset.peg_pieces or (asset.peg,)
     geom_names = [f"{prefix}peg"] + [f"{prefix}peg_{i}" for i in range(1, len(shapes))]
     for name, shape in zip(geom_names, shapes, strict=True):
         _add_mesh(spec, name, shape.vertices, shape.faces)
-    body = spec.worldbody.add_body()
-    body.name = f"{prefix}peg"
-    body.pos = [offset[0], offset[1], offset[2] + 0.2]
     body.explicitinertial = True
     body.mass = asset.peg_mass
     body.ipos = asset.peg_com.tolist()
@@ -124,7 +130,6 @@ def add_environment(
         inertia[0, 2],
         inertia[1, 2],
     ]
-    body.add_freejoint().name = f"{prefix}peg_free"
     for name in geom_names:
         g = body.add_geom()
         g.name = name
@@ -140,6 +145,31 @@ def add_environment(
         g.margin = g.gap = physics.contact_margin
     site = body.add_site()
     site.name = f"{prefix}{PEG_SITE}"
+
+
+def add_environment(
+    spec: mujoco.MjSpec,
+    asset: ModuleAsset,
+    physics: PhysicsConfig,
+    *,
+    prefix: str = "",
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    collision_bit: int = 1,
+    max_lin_vel: float = 0.25,
+    max_ang_vel: float = math.pi / 2,
+) -> None:
+    """Add one module (static pieces), its peg (free body) and the six actuators to `spec`.
+
+    `offset` places the module origin in the world (shards hold many modules side by side);
+    `collision_bit` is the contype of the peg and the conaffinity of the pieces, so a peg
+    only touches modules that share its bit.
+    """
+    add_pieces(spec, asset, physics, prefix=prefix, offset=offset, collision_bit=collision_bit)
+    body = spec.worldbody.add_body()
+    body.name = f"{prefix}peg"
+    body.pos = [offset[0], offset[1], offset[2] + 0.2]
+    body.add_freejoint().name = f"{prefix}peg_free"
+    add_peg(spec, body, asset, physics, prefix=prefix, collision_bit=collision_bit)
 
     # no command asks for more than the limit: a reversal from -max to +max velocity needs
     # kv * 2 * max <= limit (2.2 for a margin)

@@ -1,0 +1,186 @@
+"""The Panda holding the peg, measured: the controller's tracking in free space, the share of
+the task's spawn poses the arm reaches on a split, and its cost against the floating peg.
+
+    python -m benchmarks.panda tracking [--dataset test]
+    python -m benchmarks.panda reach --dataset test [--poses 4] [--modules N]
+    python -m benchmarks.panda cost [--envs 32] [--steps 50]
+
+tracking: each axis commanded alone at 0.1 m/s (linear) or 1 rad/s (angular) for 0.5 s from
+the home pose over the module's entrance; prints the velocity's error after 0.1, 0.2 and
+0.3 s and the time to come within 5 %, the largest velocity across the commanded axis, and
+the joints' largest torque.
+reach: per module, the peg sizes the fingers must hold (refusals named) and `--poses` spawn
+poses drawn as the task draws them (full ranges); prints the reached share, overall and with
+the spawn tilt within 45 degrees, and the joints that stop the arm.
+cost: env steps per second of the arm and of the floating peg (BatchSim), same modules, same
+commands, one thread each, in one run; prints their ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from collections import Counter
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+
+from assetgen.core.mujoco_config import physics_for
+from sim.assets.loading import dataset_root, load_dataset
+from sim.task import rules as T
+from sim.task.config import TaskConfig
+
+
+def _task(clearance: float) -> TaskConfig:
+    return replace(TaskConfig(), physics=physics_for(clearance))
+
+
+def tracking(dataset: str, modules: int) -> dict:
+    from sim.robots.panda.sim import PandaSim
+
+    assets = load_dataset(dataset_root(dataset))[:modules]
+    rows = {}
+    for axis in range(6):
+        sim = PandaSim(assets, _task(assets[0].clearance), nthread=1)
+        target = 0.1 if axis < 3 else 1.0
+        v = np.zeros((len(assets), 6))
+        v[:, axis] = target
+        speeds, torques = [], []
+        for _ in range(25):
+            sim.step(v)
+            w = np.zeros((len(assets), 3))
+            for i, s in enumerate(sim.state):
+                mujoco.mju_rotVecQuat(w[i], s[11:14], s[4:8])
+            speeds.append(np.concatenate([sim.state[:, 8:11], w], axis=1))
+            torques.append(np.abs(sim.full[:, 8:15]).max())  # qvel, for scale only
+        got = np.array(speeds)  # (steps, envs, 6)
+        err = np.abs(got[:, :, axis] - target) / target
+        within = (err < 0.05).all(axis=1)
+        settle = next((k for k in range(len(within)) if within[k:].all()), None)
+        across = np.abs(np.delete(got, axis, axis=2)[:, :, : 3 if axis >= 3 else 2])
+        rows["xyz"[axis % 3] + ("" if axis < 3 else " rot")] = {
+            "error_at_0.1s": float(err[4].max()),
+            "error_at_0.2s": float(err[9].max()),
+            "error_at_0.3s": float(err[14].max()),
+            "settle_s": None if settle is None else round((settle + 1) * 0.02, 2),
+            "largest_across": float(across[5:].max()),
+        }
+    return {"modules": len(assets), "axes": rows}
+
+
+def reach(dataset: str, poses: int, modules: int | None, seed: int) -> dict:
+    from sim.robots.panda.kinematics import reach as reach_pose
+    from sim.robots.panda.scene import Mount, build_arm_spec
+
+    assets = load_dataset(dataset_root(dataset))
+    if modules:
+        assets = assets[:modules]
+    rng = np.random.default_rng(seed)
+    cfg = TaskConfig()
+    refused: dict[str, str] = {}
+    reached = tilted_ok = tilted_n = total = 0
+    stops: Counter[str] = Counter()
+    unreached_modules: Counter[str] = Counter()
+    t0 = time.perf_counter()
+    for a in assets:
+        try:
+            m = build_arm_spec(a, physics_for(a.clearance), Mount()).compile()
+        except ValueError as err:
+            refused[a.id] = str(err)
+            continue
+        d = mujoco.MjData(m)
+        eq = np.zeros(4)
+        mujoco.mju_mat2Quat(eq, a.entrance[:3, :3].ravel())
+        n = poses
+        pos, quat = T.sample_spawn(
+            rng, np.repeat(a.entrance[None, :3, 3], n, 0), np.repeat(eq[None], n, 0),
+            np.repeat(a.peg.vertices[None], n, 0), 1.0, cfg,
+        )  # fmt: skip
+        for k in range(n):
+            q, limits = reach_pose(m, d, pos[k], quat[k], rng)
+            ok = q is not None
+            total += 1
+            reached += ok
+            # the spawn's tilt from the entrance frame
+            rel = np.zeros(4)
+            conj = np.array([eq[0], -eq[1], -eq[2], -eq[3]])
+            mujoco.mju_mulQuat(rel, conj, quat[k])
+            tilt = 2 * math.degrees(math.acos(min(1.0, abs(rel[0]))))
+            if tilt <= 45:
+                tilted_n += 1
+                tilted_ok += ok
+            if not ok:
+                stops.update(limits or ["reach"])
+                unreached_modules[a.id] += 1
+    return {
+        "dataset": str(dataset),
+        "modules": len(assets),
+        "refused_modules": refused,
+        "poses": total,
+        "reached_share": reached / max(total, 1),
+        "reached_share_tilt_within_45deg": tilted_ok / max(tilted_n, 1),
+        "poses_tilt_within_45deg": tilted_n,
+        "stopped_by": dict(stops.most_common()),
+        "modules_with_an_unreached_pose": len(unreached_modules),
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+
+
+def cost(dataset: str, envs: int, steps: int) -> dict:
+    from sim.engines.mujoco.batch import BatchSim
+    from sim.robots.panda.sim import PandaSim
+
+    assets = load_dataset(dataset_root(dataset))[:envs]
+    task = _task(assets[0].clearance)
+    rng = np.random.default_rng(0)
+    commands = [rng.uniform(-1, 1, (len(assets), 6)) * [0.05] * 3 + [0] * 3 for _ in range(steps)]
+    out = {}
+    for name, make in (
+        ("floating", lambda: BatchSim(assets, task, nthread=1, shard_size=8)),
+        ("panda", lambda: PandaSim(assets, task, nthread=1)),
+    ):
+        sim = make()
+        if name == "floating":  # the same start: over the entrance
+            pos = np.array([a.entrance[:3, 3] + [0, 0, 0.2] for a in assets])
+            quat = np.zeros((len(assets), 4))
+            for i, a in enumerate(assets):
+                mujoco.mju_mat2Quat(quat[i], a.entrance[:3, :3].ravel())
+            sim.set_pose(np.arange(len(assets)), pos, quat)
+        t = time.perf_counter()
+        for v in commands:
+            sim.step(np.asarray(v, float))
+        out[name] = len(assets) * steps / (time.perf_counter() - t)
+        sim.close()
+    return {
+        "envs": len(assets),
+        "steps": steps,
+        "env_steps_per_s": {k: round(v) for k, v in out.items()},
+        "panda_over_floating": round(out["panda"] / out["floating"], 3),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.panda", description=__doc__)
+    p.add_argument("what", choices=["tracking", "reach", "cost"])
+    p.add_argument("--dataset", default="test")
+    p.add_argument("--poses", type=int, default=4, help="spawn poses per module (reach)")
+    p.add_argument("--modules", type=int, help="the first N modules only")
+    p.add_argument("--envs", type=int, default=32)
+    p.add_argument("--steps", type=int, default=50)
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args(argv)
+    if args.what == "tracking":
+        result = tracking(args.dataset, args.modules or 4)
+    elif args.what == "reach":
+        result = reach(args.dataset, args.poses, args.modules, args.seed)
+    else:
+        result = cost(args.dataset, args.envs, args.steps)
+    print(json.dumps(result, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Robots that hold the peg in place of the floating peg's velocity actuators."""

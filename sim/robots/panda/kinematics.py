@@ -1,0 +1,117 @@
+"""The arm's kinematics at the policy rate: the peg site's Jacobian, differential inverse
+kinematics with a nullspace posture, and placing the peg at a pose.
+
+Written here rather than taken from an IK library (mink, for one) because the controller
+solves one small problem per env at every policy step, for a batch of envs at once: a
+damped least-squares step is a batched 6 x 6 solve in numpy, where a QP solver per env
+would cost more than the physics it steers.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from sim.engines.mujoco.scene import PEG_SITE
+from sim.robots.panda.model import HOME, JOINTS, VELOCITY_LIMITS, ArmSettings
+
+
+def peg_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+    """(6, 7) the peg site's Jacobian (linear over angular, module frame) at d's positions
+    (kinematics must be current: mj_kinematics and mj_comPos)."""
+    jac = np.zeros((6, m.nv))
+    mujoco.mj_jacSite(m, d, jac[:3], jac[3:], m.site(PEG_SITE).id)
+    return jac[:, :7]
+
+
+def joint_velocity(
+    jac: np.ndarray, twist: np.ndarray, q: np.ndarray, settings: ArmSettings
+) -> np.ndarray:
+    """(n, 7) joint velocities that move the peg site at `twist` (n, 6: linear m/s, angular
+    rad/s, module frame) for Jacobians jac (n, 6, 7) at joints q (n, 7): damped least
+    squares, plus a drift to HOME in the nullspace, scaled down as a whole where a joint
+    would pass its velocity limit (so the direction of motion is kept)."""
+    lam2 = settings.damping**2
+    jjt = jac @ np.swapaxes(jac, 1, 2) + lam2 * np.eye(6)
+    pinv = np.swapaxes(jac, 1, 2) @ np.linalg.inv(jjt)  # (n, 7, 6)
+    qd = np.einsum("nij,nj->ni", pinv, twist)
+    drift = settings.nullspace_gain * (HOME - q)
+    null = drift - np.einsum("nij,nj->ni", pinv @ jac, drift)
+    qd = qd + null
+    over = np.max(np.abs(qd) / VELOCITY_LIMITS, axis=1)
+    return qd / np.maximum(over, 1.0)[:, None]
+
+
+def _quat_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """(3,) the rotation vector that turns `current` into `target` (module frame)."""
+    err = np.zeros(3)
+    conj = np.zeros(4)
+    mujoco.mju_negQuat(conj, current)
+    dq = np.zeros(4)
+    mujoco.mju_mulQuat(dq, target, conj)
+    mujoco.mju_quat2Vel(err, dq, 1.0)
+    return err
+
+
+def place_peg(
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    pos: np.ndarray,
+    quat: np.ndarray,
+    q0: np.ndarray | None = None,
+    *,
+    iterations: int = 200,
+    tol: float = 1e-5,
+) -> tuple[np.ndarray, float, list[str]]:
+    """Joint positions (7,) that put the peg frame at pos (3,), quat (4,) in the module frame,
+    by damped Gauss-Newton from q0 (default HOME) within the joint limits; d's qpos is left
+    at them. Returns them, the remaining error (m + rad) and the joints that sit at a limit."""
+    site = m.site(PEG_SITE).id
+    lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
+    q = np.array(HOME if q0 is None else q0, dtype=float)
+    d.qpos[:7] = q
+    err = np.inf
+    jac = np.zeros((6, m.nv))
+    for _ in range(iterations):
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        cur = np.zeros(4)
+        mujoco.mju_mat2Quat(cur, d.site_xmat[site])
+        e = np.concatenate([pos - d.site_xpos[site], _quat_error(quat, cur)])
+        err = float(np.linalg.norm(e))
+        if err < tol:
+            break
+        mujoco.mj_jacSite(m, d, jac[:3], jac[3:], site)
+        j = jac[:, :7]
+        step = j.T @ np.linalg.solve(j @ j.T + 1e-4 * np.eye(6), e)
+        q = np.clip(q + step, lo, hi)
+        d.qpos[:7] = q
+    at_limit = [JOINTS[i] for i in np.flatnonzero((q <= lo + 1e-3) | (q >= hi - 1e-3))]
+    return q, err, at_limit
+
+
+def reach(
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    pos: np.ndarray,
+    quat: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    tries: int = 8,
+    tol: float = 1e-4,
+) -> tuple[np.ndarray | None, list[str]]:
+    """place_peg from HOME, then from `tries - 1` postures drawn around it, until one
+    reaches the pose within `tol`: its joints (None if none did) and the joints at a limit
+    in the closest attempt (what stops the arm)."""
+    best: tuple[float, np.ndarray, list[str]] | None = None
+    lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
+    for k in range(tries):
+        q0 = HOME if k == 0 else np.clip(HOME + rng.normal(0.0, 0.6, 7), lo, hi)
+        q, err, limits = place_peg(m, d, pos, quat, q0)
+        if err < tol:
+            return q, []
+        if best is None or err < best[0]:
+            best = (err, q, limits)
+    assert best is not None
+    d.qpos[:7] = best[1]
+    return None, best[2]

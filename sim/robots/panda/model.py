@@ -1,0 +1,162 @@
+"""The Franka Emika Panda, read at run time from gymnasium-robotics (the `[robot]` extra).
+
+gymnasium-robotics (MIT, maintained by the Farama Foundation) ships a MuJoCo Panda with its
+visual and collision meshes (envs/assets/kitchen_franka/franka_assets, after Vikash Kumar's
+franka_sim, Apache-2.0). It is the only maintained package on PyPI that carries the meshes
+themselves: MuJoCo Menagerie's pip package downloads them from GitHub at first use, which a
+machine without internet cannot do. Nothing of the model is copied into this repository: the
+files are read from the installed package and changed in memory only.
+
+What is changed, and why:
+- the joints' damping (100 and 10 N m s/rad in the kitchen model, which caps joint 1-4
+  speeds at 0.87 rad/s under the 87 N m limit) is set to `ArmSettings.joint_damping`, and an
+  armature (reflected rotor inertia) is added, as the real arm's drives have;
+- the position actuators get the gains of `ArmSettings` (kp, and a kv the kitchen model
+  lacks), keeping the published torque limits (87 N m on joints 1-4, 12 N m on 5-7);
+- the fingers' slide joints and actuators are removed: the peg is held rigidly (the "secure
+  grasp"), so the fingers are fixed at the peg's width;
+- gravity is compensated by MuJoCo (body gravcomp), through the actuators (actuatorgravcomp),
+  so the compensation counts against the torque limits as on the real arm.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+ASSET_DIR = "envs/assets/kitchen_franka/franka_assets"
+"""Where gymnasium-robotics keeps the Panda's MJCF and meshes, inside its package."""
+JOINTS = tuple(f"robot:panda0_joint{i}" for i in range(1, 8))
+"""The arm's seven joint names in the package's model."""
+FINGERS = ("panda0_leftfinger", "panda0_rightfinger")
+FLANGE = "panda0_link7"
+"""The last link: the hand and the held peg are fixed to it."""
+TORQUE_LIMITS = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
+"""Published joint torque limits, N m (Franka's control parameters)."""
+VELOCITY_LIMITS = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
+"""Published joint velocity limits, rad/s."""
+FINGER_TIP = 0.26
+"""Distance of the fingertips from the flange along its z, m (pads from 0.20 to 0.26)."""
+FINGER_BASE = 0.1654
+"""The fingers' bodies sit this far along the flange's z, m."""
+MAX_OPENING = 0.08
+"""The widest peg the fingers close on, m (two 40 mm strokes)."""
+HOME = np.array([0.0, -0.3, 0.0, -2.26, 0.0, 0.39, -0.8])
+"""The nullspace posture: elbow up, the flange pointing down 0.2 m over the hole (this
+model's joint 6 is zero where the standard Panda's is pi / 2)."""
+
+
+class MissingRobotError(RuntimeError):
+    """The `[robot]` extra is not installed."""
+
+
+@dataclass(frozen=True)
+class ArmSettings:
+    """The arm's drive and controller settings (docs/robot.md has the measurement that chose
+    them)."""
+
+    kp: tuple[float, ...] = (4500.0, 4500.0, 3500.0, 3500.0, 2000.0, 2000.0, 2000.0)
+    """Position gains of the joints' actuators, N m/rad."""
+    kv: tuple[float, ...] = (450.0, 450.0, 350.0, 350.0, 200.0, 200.0, 200.0)
+    """Velocity gains of the joints' actuators, N m s/rad."""
+    joint_damping: float = 1.0
+    """Viscous damping of every arm joint, N m s/rad."""
+    armature: float = 0.1
+    """Reflected rotor inertia added to every arm joint, kg m^2."""
+    damping: float = 0.01
+    """Damped least squares' lambda for the differential inverse kinematics (m, rad): it
+    bounds the joint speeds near a singularity. Measured (benchmarks.panda tracking): 0.05
+    left 10-11 % of a 0.1 m/s command untracked along x and z; 0.01 leaves under 1 %."""
+    nullspace_gain: float = 2.0
+    """Rate (1/s) at which the joints drift to HOME within the task's nullspace."""
+
+    def validate(self) -> ArmSettings:
+        bad = [
+            name
+            for name, ok in {
+                "7 kp": len(self.kp) == 7 and all(k > 0 for k in self.kp),
+                "7 kv": len(self.kv) == 7 and all(k >= 0 for k in self.kv),
+                "joint_damping >= 0": self.joint_damping >= 0,
+                "armature >= 0": self.armature >= 0,
+                "damping > 0": self.damping > 0,
+                "nullspace_gain >= 0": self.nullspace_gain >= 0,
+            }.items()
+            if not ok
+        ]
+        if bad:
+            raise ValueError(f"ArmSettings: these must hold: {bad}")
+        return self
+
+
+def asset_dir() -> Path:
+    """The installed package's Panda folder, or MissingRobotError naming the extra."""
+    spec = importlib.util.find_spec("gymnasium_robotics")
+    if spec is None or not spec.submodule_search_locations:
+        raise MissingRobotError(
+            "the Panda arm needs the package 'gymnasium_robotics', which comes with the "
+            '[robot] extra: pip install "peg-in-hole-assetgen[robot]" (in a checkout: '
+            'pip install -e ".[robot]")'
+        )
+    root = Path(spec.submodule_search_locations[0]) / ASSET_DIR
+    if not (root / "chain.xml").is_file():
+        raise MissingRobotError(
+            f"gymnasium_robotics at {root.parent.parent.parent} has no Panda model "
+            f"({ASSET_DIR}/chain.xml); install the [robot] extra's version: "
+            'pip install -e ".[robot]"'
+        )
+    return root
+
+
+def panda_spec(settings: ArmSettings | None = None, grasp_width: float = 0.04) -> mujoco.MjSpec:
+    """The Panda as an MjSpec: its base body `panda0_link0` at the origin, the changes of
+    the module doc applied, the fingers fixed `grasp_width` apart (m, at most MAX_OPENING)."""
+    settings = settings or ArmSettings()
+    root = asset_dir()
+    xml = (
+        f'<mujoco model="panda"><include file="{root}/assets.xml"/>'
+        f'<include file="{root}/actuator.xml"/>'
+        f'<worldbody><include file="{root}/chain.xml"/></worldbody></mujoco>'
+    )
+    spec = mujoco.MjSpec.from_string(xml)
+    # the package's compiler meshdir is relative to a main file we do not have: point every
+    # mesh at its file
+    for mesh in spec.meshes:
+        mesh.file = str(root / "meshes" / Path(mesh.file).relative_to(root))
+    spec.meshdir = ""
+    for act in list(spec.actuators):
+        spec.delete(act)
+    half = min(max(grasp_width, 0.0), MAX_OPENING) / 2
+    for side, name in zip((1.0, -1.0), FINGERS, strict=True):
+        body = spec.body(name)
+        for j in list(body.joints):
+            spec.delete(j)
+        # the finger slides along its body's y (the left finger +y, the right -y), which
+        # the body's quat turns about the flange's z
+        q = np.array(body.quat, dtype=float)
+        axis = np.zeros(3)
+        mujoco.mju_rotVecQuat(axis, np.array([0.0, side * half, 0.0]), q)
+        body.pos = (np.array(body.pos, dtype=float) + axis).tolist()
+    for i, name in enumerate(JOINTS):
+        j = spec.joint(name)
+        j.damping = [settings.joint_damping, 0.0, 0.0]
+        j.armature = settings.armature
+        j.actgravcomp = True
+        a = spec.add_actuator()
+        a.name = f"arm{i + 1}"
+        a.target = name
+        a.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        a.gainprm[0] = settings.kp[i]
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.biasprm[:3] = [0.0, -settings.kp[i], -settings.kv[i]]
+        a.forcelimited = True
+        a.forcerange = [-TORQUE_LIMITS[i], TORQUE_LIMITS[i]]
+        a.ctrllimited = False
+    for body in spec.bodies:
+        if body.name.startswith("panda0_"):
+            body.gravcomp = 1.0
+    return spec

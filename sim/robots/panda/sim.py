@@ -1,0 +1,209 @@
+"""Panda arms holding the pegs: the engine interface (sim.engines.base.EngineSim) over
+MuJoCo, the peg moved through the arm's joints.
+
+The controller, at the policy rate: the commanded twist of the peg's bottom-face centre
+becomes joint velocities by damped least squares with a nullspace drift to the home posture
+(kinematics.joint_velocity), and those become per-physics-step position targets of the
+joints' actuators, a ramp from the measured joints. MuJoCo then steps all substeps in C
+(`mujoco.rollout`, one model per env, no Python in between); the actuators' force limits are
+the Panda's published torque limits, so a peg pressed into the plate meets a bounded force.
+Why this design and not an impedance law inside MuJoCo: MuJoCo has no actuator whose force
+follows a Cartesian twist through the Jacobian of the moment (it would need Python, or a
+plugin, in every substep); a joint-space ramp does, and its tracking is measured in
+docs/robot.md.
+"""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from sim.assets.loading import ModuleAsset
+from sim.engines.base import EngineOptions, EngineSim
+from sim.engines.mujoco.scene import restitution_to_dampratio
+from sim.robots.panda.kinematics import joint_velocity, peg_jacobian, reach
+from sim.robots.panda.model import ArmSettings
+from sim.robots.panda.scene import SENSOR_DIMS, SENSORS, Mount, build_arm_spec
+from sim.task.config import TaskConfig
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+class UnreachableError(ValueError):
+    """A peg pose the arm cannot take."""
+
+
+class PandaSim(EngineSim):
+    """`num_envs` Panda arms, each holding its module's peg (see the module doc)."""
+
+    saves_state = False
+    parks_idle = False
+    rotates_modules = False
+
+    def __init__(
+        self,
+        env_assets: list[ModuleAsset],
+        task: TaskConfig,
+        nthread: int | None = None,
+        mount: Mount | None = None,
+        settings: ArmSettings | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.task = task
+        self.settings = settings = (settings or ArmSettings()).validate()
+        self.assets = list(env_assets)
+        self.num_envs = n = len(env_assets)
+        p = task.physics
+        self.substeps = p.substeps
+        self.models = [build_arm_spec(a, p, mount, settings).compile() for a in env_assets]
+        m0 = self.models[0]
+        self.nthread = max(1, nthread if nthread is not None else os.cpu_count() or 1)
+        self._scratch = [mujoco.MjData(m) for m in self.models]
+        self._rollout = rollout.Rollout(nthread=0)
+        self.nfull = mujoco.mj_stateSize(m0, STATE_SPEC)
+        self.full = np.zeros((n, self.nfull))
+        self._sensor = np.zeros((n, p.substeps, m0.nsensordata))
+        self._out = np.zeros((n, p.substeps, self.nfull))
+        self._ctrl = np.zeros((n, p.substeps, m0.nu))
+        off = np.cumsum((0, *SENSOR_DIMS))
+        self._slices = {s: slice(off[i], off[i + 1]) for i, s in enumerate(SENSORS)}
+        self._lead = np.array(settings.kv) / np.array(settings.kp)
+        self._rng = np.random.default_rng(seed)
+        self.state = np.zeros((n, 14))
+        self.state[:, 4] = 1.0
+        self.wrist = np.zeros((n, 6))
+        """(num_envs, 6) the wrist's force (N) and torque (N m) on the peg, peg frame, at the
+        last physics step."""
+        for e in range(n):
+            self._place(e, *self._entrance_pose(e))
+
+    @classmethod
+    def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> PandaSim:
+        if spare_assets:
+            raise ValueError("the Panda serves one env per module (no module rotation yet)")
+        return cls(env_assets, task, options.nthread)
+
+    # ------------------------------------------------------------------ poses
+
+    def _entrance_pose(self, e: int) -> tuple[np.ndarray, np.ndarray]:
+        ent = self.assets[e].entrance
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, ent[:3, :3].ravel())
+        return ent[:3, 3] + ent[:3, 2] * 0.2, quat
+
+    def _place(self, e: int, pos: np.ndarray, quat: np.ndarray) -> None:
+        m, d = self.models[e], self._scratch[e]
+        q, limits = reach(m, d, pos, quat, self._rng)
+        if q is None:
+            raise UnreachableError(
+                f"module {self.assets[e].id}: the Panda cannot hold its peg at "
+                f"{np.round(pos, 3).tolist()} m, {np.round(quat, 3).tolist()}; stopped by "
+                f"{', '.join(limits) or 'its reach'}"
+            )
+        d.qpos[:7] = q
+        d.qvel[:] = 0.0
+        d.ctrl[:7] = q
+        d.time = self.full[e, 0]
+        mujoco.mj_forward(m, d)
+        mujoco.mj_getState(m, d, self.full[e], STATE_SPEC)
+        self._read(e, d.sensordata)
+
+    def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Put the pegs of envs idx at rest at pos (k, 3), quat (k, 4) through the arm's
+        inverse kinematics (UnreachableError if a pose is out of reach)."""
+        quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+        for j, e in enumerate(np.arange(self.num_envs)[idx]):
+            self._place(int(e), pos[j], quat[j])
+
+    def set_material(self, idx, static, dynamic, restitution) -> None:
+        del static
+        from sim.engines.mujoco.scene import contact_solref
+
+        solref = contact_solref(restitution_to_dampratio(restitution, self.task.physics),
+                                self.task.physics)  # fmt: skip
+        for j, e in enumerate(np.arange(self.num_envs)[idx]):
+            m = self.models[e]
+            b = m.body("peg")
+            g = slice(int(b.geomadr[0]), int(b.geomadr[0] + b.geomnum[0]))
+            m.geom_friction[g, 0] = dynamic[j]
+            m.geom_solref[g] = solref[j]
+
+    # ------------------------------------------------------------------ stepping
+
+    def _read(self, e: int, sensordata: np.ndarray) -> None:
+        s = self._slices
+        self.state[e, 1:4] = sensordata[s["peg_pos"]]
+        q = sensordata[s["peg_quat"]]
+        self.state[e, 4:8] = q
+        self.state[e, 8:11] = sensordata[s["peg_linvel"]]
+        # a free joint's angular velocity is in the body frame: R^T w
+        w = np.zeros(3)
+        conj = np.array([q[0], -q[1], -q[2], -q[3]])
+        mujoco.mju_rotVecQuat(w, sensordata[s["peg_angvel"]], conj)
+        self.state[e, 11:14] = w
+        self.wrist[e, :3] = sensordata[s["wrist_force"]]
+        self.wrist[e, 3:] = sensordata[s["wrist_torque"]]
+
+    def joint_positions(self) -> np.ndarray:
+        """(num_envs, 7) the arm's joint positions, rad."""
+        return self.full[:, 1:8].copy()
+
+    def step(self, velocity: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
+        """One control step: the twists (num_envs, 6) of the pegs' bottom-face centres
+        (module frame) through the controller of the module doc. Returns (num_envs,) bool:
+        envs whose physics broke down (non-finite state)."""
+        del live
+        n = self.num_envs
+        jac = np.empty((n, 6, 7))
+        for e in range(n):
+            m, d = self.models[e], self._scratch[e]
+            d.qpos[:] = self.full[e, 1:8]
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            jac[e] = peg_jacobian(m, d)
+        q = self.full[:, 1:8]
+        qd = joint_velocity(jac, np.asarray(velocity, float), q, self.settings)
+        h = self.task.physics.timestep
+        t = h * np.arange(1, self.substeps + 1)
+        self._ctrl[:] = q[:, None, :] + qd[:, None, :] * (t[None, :, None] + self._lead)
+        # one rollout call per env: the models differ in their pegs' meshes, so no MjData
+        # can step another env's model (the floating peg's shards share a capacity model)
+        for e in range(n):
+            self._rollout.rollout(
+                [self.models[e]],
+                [self._scratch[e]],
+                self.full[e : e + 1],
+                self._ctrl[e : e + 1],
+                nstep=self.substeps,
+                state=self._out[e : e + 1],
+                sensordata=self._sensor[e : e + 1],
+                skip_checks=True,
+            )
+        self.full[:] = self._out[:, -1]
+        for e in range(n):
+            self._read(e, self._sensor[e, -1])
+        return ~np.isfinite(self.full).all(axis=1)
+
+    def gather(self) -> None:
+        """The state is read at every step (sensors); nothing to refresh."""
+
+    def contacts(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        m, d = self.models[i], self._scratch[i]
+        mujoco.mj_setState(m, d, self.full[i], STATE_SPEC)
+        mujoco.mj_forward(m, d)
+        b = m.body("peg")
+        peg = range(int(b.geomadr[0]), int(b.geomadr[0] + b.geomnum[0]))
+        mine = [c for c in range(d.ncon) if d.contact[c].geom1 in peg or d.contact[c].geom2 in peg]
+        dist = np.array([d.contact[c].dist for c in mine])
+        force = np.zeros(len(mine))
+        f6 = np.zeros(6)
+        for j, c in enumerate(mine):
+            mujoco.mj_contactForce(m, d, c, f6)
+            force[j] = f6[0]
+        return dist, force
+
+    def close(self) -> None:
+        self._rollout.close()
