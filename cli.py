@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     from preview.command import add_parser as add_view_parser
     from sim.bench.command import add_parsers as add_sim_benches
     from sim.engines.registry import add_engine_argument
+    from sim.robots.scene_command import add_parser as add_scene_parser
 
     p = argparse.ArgumentParser(
         prog="assetgen", description="Procedural peg-in-hole modules, simulation and learning."
@@ -52,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_eval_parser(sub)
     add_view_parser(sub)
+    add_scene_parser(sub)
 
     # torch (the `rl` extra) is imported when `train` or `report` runs, not here: it would
     # add over a second to every command

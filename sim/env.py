@@ -42,6 +42,7 @@ from sim.assets.loading import ModuleAsset, check_physics, dataset_root, load_da
 from sim.engines.base import EngineOptions
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
+from sim.robots.registry import check_robot
 from sim.task import kernel as K
 from sim.task import rules as T
 from sim.task.config import TaskConfig
@@ -87,10 +88,14 @@ class PegInHoleVecEnv:
         engine: str = DEFAULT_ENGINE,
         physx: PhysxConfig | None = None,
         warp_device: str | None = None,
+        robot: str | None = None,
     ) -> None:
         spec = get_engine(engine)
         self.engine = spec.name
         """The physics engine's name (sim/engines/registry.py)."""
+        holder = check_robot(robot, spec.name)
+        self.robot = None if holder is None else holder.name
+        """The robot holding the peg (sim/robots/registry.py), or None: the floating peg."""
         self.cfg = (config or TaskConfig()).validate()
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
@@ -126,7 +131,8 @@ class PegInHoleVecEnv:
                 f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
             )
         options = EngineOptions(nthread, shard_size, physx, warp_device)
-        self.sim = spec.load("sim").create(assets, self.cfg, spare, options)
+        sim_class = spec.load("sim") if holder is None else holder.load_sim()
+        self.sim = sim_class.create(assets, self.cfg, spare, options)
         self.control_dt = self.cfg.control_dt
         self.stateful = self.sim.saves_state
         """Whether get_state / set_state work (rl/vec_env.py's is_stateful): an engine whose
@@ -189,6 +195,11 @@ class PegInHoleVecEnv:
             self.module_replay = ModuleReplay(len(modules), self.cfg.module_replay)
         self.unstable_count = 0
         """Episodes cut short because their physics went unstable."""
+        self.spawn_draws = 0
+        """Spawn poses drawn, redraws included."""
+        self.spawn_redraws = 0
+        """Spawn poses drawn again because the robot holding the peg could not reach them
+        (always 0 for the floating peg): 1 - redraws / draws is the reachable share."""
         self.rng = np.random.default_rng()
         self._steps = np.zeros(n, dtype=np.int64)
         self._return = np.zeros(n)
@@ -318,7 +329,7 @@ class PegInHoleVecEnv:
             scale,
             cfg,
         )
-        self.sim.set_pose(idx, pos, quat)
+        pos, quat = self._place(idx, pos, quat, scale)
         k = len(idx)
         # static and dynamic friction are drawn as in the original; each engine takes them
         # as it models contact (BatchSim.set_material, PhysxBatchSim.set_material)
@@ -327,6 +338,38 @@ class PegInHoleVecEnv:
         static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
         self.sim.set_material(idx, static, dynamic, restitution)
         self._start_episodes(idx, pos, quat)
+
+    MAX_SPAWN_DRAWS = 200
+    """Draws of one env's spawn pose before a robot that reaches none of them is refused."""
+
+    def _place(
+        self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray, scale: float | np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Put the pegs of envs idx at their drawn spawn poses; where a robot holding the peg
+        cannot reach one, draw that env's pose again (counted in spawn_redraws). The
+        floating peg takes every pose, and draws nothing more."""
+        self.spawn_draws += len(idx)
+        placed = self.sim.place(idx, pos, quat)
+        if placed is None:
+            return pos, quat
+        for _ in range(self.MAX_SPAWN_DRAWS):
+            if placed.all():
+                return pos, quat
+            miss = np.flatnonzero(~placed)
+            self.spawn_draws += len(miss)
+            self.spawn_redraws += len(miss)
+            s = scale[miss] if np.ndim(scale) > 0 else scale
+            p, q = T.sample_spawn(self.rng, self.entrance[idx[miss], :3, 3],
+                                  self._entrance_quat[idx[miss]], self.peg_vertices[idx[miss]],
+                                  s, self.cfg)  # fmt: skip
+            pos[miss], quat[miss] = p, q
+            placed[miss] = self.sim.place(idx[miss], p, q)
+        e = int(idx[np.flatnonzero(~placed)[0]])
+        why = getattr(self.sim, "unreached", {}).get(e, "")
+        raise ValueError(
+            f"{self.robot}: none of {self.MAX_SPAWN_DRAWS} spawn poses of env {e} "
+            f"(module {self.module_ids[self.env_module[e]]}) is in reach; the last: {why}"
+        )
 
     def set_peg_poses(self, idx: np.ndarray, poses: np.ndarray) -> None:
         """Put the pegs of envs idx at `poses` (k, 4, 4), at rest, and restart their
@@ -618,6 +661,7 @@ def make_train_env(
     module_replay: float | None = None,
     near_starts: float | None = None,
     axis_shaping: float | None = None,
+    robot: str | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -628,7 +672,7 @@ def make_train_env(
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
     task on the device). near_starts: TaskConfig.near_starts; axis_shaping:
-    TaskConfig.dist_axis_weight."""
+    TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats)."""
     root, config = train_config(
         dataset,
         curriculum_steps,
@@ -639,7 +683,13 @@ def make_train_env(
         axis_shaping,
     )
     return PegInHoleVecEnv(
-        root, num_envs, config, assignment_seed=seed, rotate_modules=True, engine=engine
+        root,
+        num_envs,
+        config,
+        assignment_seed=seed,
+        rotate_modules=True,
+        engine=engine,
+        robot=robot,
     )
 
 
@@ -669,6 +719,7 @@ def make_eval_env(
     keep_physics: bool = False,
     engine: str = DEFAULT_ENGINE,
     physx: PhysxConfig | None = None,
+    robot: str | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -678,7 +729,7 @@ def make_eval_env(
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
     keep_physics: as for make_train_env. engine: a registered engine's name (physx with the PhysX
-    settings `physx`)."""
+    settings `physx`). robot: a registered robot holds the peg (None: it floats)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)
@@ -695,7 +746,13 @@ def make_eval_env(
             "checkpoint is evaluated with one env per module; raise num_envs"
         )
     env = PegInHoleVecEnv(
-        modules, len(modules), config, assignment_seed=seed, engine=engine, physx=physx
+        modules,
+        len(modules),
+        config,
+        assignment_seed=seed,
+        engine=engine,
+        physx=physx,
+        robot=robot,
     )
     ds = Dataset(root)
     env.protocol = {
@@ -710,6 +767,8 @@ def make_eval_env(
         # as before (evaluation files without this field); the two draw differently
         "finished_envs": "parked" if env.parks_finished else "stepped",
     }
+    if robot is not None:  # the floating peg's files keep their fields as they were
+        env.protocol["robot"] = env.robot
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
     env.protocol.update(env.sim.protocol())  # the engine's own settings, if any

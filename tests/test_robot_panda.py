@@ -128,3 +128,84 @@ def test_without_the_extra_one_line_names_it(monkeypatch) -> None:
     with pytest.raises(model.MissingRobotError, match=r"\[robot\] extra") as err:
         model.asset_dir()
     assert "\n" not in str(err.value)
+
+
+def test_the_direct_expert_inserts_through_the_arm_from_over_the_entrance(task) -> None:
+    from sim.env import PegInHoleVecEnv
+    from sim.task.config import EVAL_CONFIG
+    from sim.task.expert import direct_expert_action
+
+    env = PegInHoleVecEnv(sim_dataset(), 4, replace(EVAL_CONFIG, physics=task.physics),
+                          robot="panda")  # fmt: skip
+    env.reset(seed=0)
+    start = env.entrance.copy()
+    start[:, :3, 3] += 0.03 * env.entrance[:, :3, 2]  # 3 cm over the entrance, upright
+    env.set_peg_poses(np.arange(4), start)
+    obs = env._obs
+    done = np.zeros(4, dtype=bool)
+    for _ in range(150):  # 3 s
+        obs, _, term, _, info = env.step(direct_expert_action(obs))
+        done |= info["success"]
+        assert not (term & ~info["success"]).any()  # no failure on the way
+        if done.all():
+            break
+    assert done.all(), done
+
+
+def test_robot_on_an_engine_without_it_is_refused_in_one_line(capsys) -> None:
+    import cli
+
+    code = cli.main(["eval", "--agent", "scripted", "--dataset", str(sim_dataset()),
+                     "--sim", "physx", "--robot", "panda"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "--robot panda runs on --sim mujoco only" in err[0]
+
+
+def test_an_unknown_robot_lists_the_valid_names(capsys) -> None:
+    import cli
+
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["eval", "--agent", "scripted", "--robot", "ur5"])
+    assert stop.value.code == 2
+    assert "invalid choice: 'ur5' (choose from panda)" in capsys.readouterr().err.replace(
+        "'panda'", "panda"
+    )
+
+
+def test_the_robot_flag_reaches_the_env_and_the_engine_flag_keeps_it() -> None:
+    import argparse
+
+    from sim.engines.registry import add_engine_argument
+
+    p = argparse.ArgumentParser()
+    add_engine_argument(p, "engine")
+    assert p.parse_args(["--robot", "panda", "--sim", "mujoco"]).engine_options == {
+        "robot": "panda"
+    }
+    assert p.parse_args(["--sim", "physx", "--robot", "panda"]).engine_options == {
+        "engine": "physx",
+        "robot": "panda",
+    }
+    assert p.parse_args([]).engine_options == {}
+
+
+def test_the_scene_command_writes_an_mjcf_that_loads_on_its_own(tmp_path, capsys) -> None:
+    import os
+
+    import cli
+
+    module = next(p for p in sorted((sim_dataset() / "modules").iterdir()) if p.is_dir())
+    out = tmp_path / "scene"
+    assert cli.main(["scene", str(module), "--robot", "panda", "--out", str(out)]) == 0
+    assert (out / "scene.xml").is_file() and len(list((out / "meshes").glob("*.stl"))) >= 10
+    here = os.getcwd()
+    try:  # from another folder: the meshes are found beside the file
+        os.chdir(tmp_path)
+        m = mujoco.MjModel.from_xml_path(str(out / "scene.xml"))
+    finally:
+        os.chdir(here)
+    assert m.nq == 7 and m.body("peg").parentid == m.body("panda0_link7").id
+    code = cli.main(["scene", "nonesuch", "--robot", "panda", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "nonesuch" in err[0]

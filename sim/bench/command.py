@@ -42,7 +42,7 @@ def add_parsers(bench: argparse._SubParsersAction) -> None:
     load.add_argument("--n", type=int, default=256, help="modules (default 256)")
     load.add_argument("--dataset", default="test", help="dataset (spec name or folder; test)")
     load.add_argument("--json", action="store_true", help="print the figures as JSON last")
-    add_engine_argument(load, f"the engine whose construction is timed ({engines})")
+    add_engine_argument(load, f"the engine whose construction is timed ({engines})", robots=False)
     load.set_defaults(func=run_load)
 
     c = bench.add_parser("contacts", help="the contact stress benchmark on a dataset")
@@ -72,7 +72,7 @@ def add_parsers(bench: argparse._SubParsersAction) -> None:
     )
     c.add_argument("--threads", type=int, default=None, help="MuJoCo's rollout threads")
     c.add_argument("--json", metavar="FILE", default=None, help="write every run's figures here")
-    add_engine_argument(c, f"the engine ({engines}; default %(default)s)")
+    add_engine_argument(c, f"the engine ({engines}; default %(default)s)", robots=False)
     c.set_defaults(func=run_contacts)
 
 

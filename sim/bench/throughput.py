@@ -80,6 +80,7 @@ def bench_engine(
     rounds: int = 10,
     seed: int = 0,
     device_env: bool = True,
+    robot: str | None = None,
 ) -> dict:
     """Env steps/s of the vector env on `engine` with random actions at `envs` envs, next to
     the engine's own control steps without the env layer (raw: no observation, reward, noise
@@ -90,7 +91,8 @@ def bench_engine(
     the same per CPU-second (*_per_cpu_s: all threads' time; steadier on a shared machine),
     the warm-up's seconds (on a device, the kernels' compilation), the setup and the engine's
     own figures. With a device env (sim/engines/registry.py) and `device_env`, the direct
-    expert's rate and bench_device_env's figures too."""
+    expert's rate and bench_device_env's figures too. robot: a registered robot holds the
+    pegs (None: the floating peg)."""
     from assetgen.dataset.reader import Dataset
     from sim.assets.loading import load_dataset
 
@@ -104,7 +106,7 @@ def bench_engine(
                               engine=spec.name)  # fmt: skip
     else:
         env = PegInHoleVecEnv(dataset, envs, config, nthread=nthread, assignment_seed=seed,
-                              shard_size=shard_size, engine=spec.name)  # fmt: skip
+                              shard_size=shard_size, engine=spec.name, robot=robot)  # fmt: skip
     build_s = time.perf_counter() - t0
     sim = env.sim
     scale = np.array([config.max_lin_vel] * 3 + [config.max_ang_vel] * 3)
@@ -121,6 +123,7 @@ def bench_engine(
     n = env.num_envs * len(actions) * rounds
     res = {
         "engine": spec.name,
+        **({} if robot is None else {"robot": robot}),
         "envs": env.num_envs,
         "steps": len(actions) * rounds,
         "threads": 1,
@@ -224,6 +227,7 @@ def bench_main(args: argparse.Namespace) -> int:
         engine=spec.name,
         nthread=getattr(args, "threads", None),
         shard_size=getattr(args, "shard_size", None) or 8,
+        robot=getattr(args, "robot", None),
     )
     if getattr(args, "json", False):
         print(json.dumps(res))

@@ -92,6 +92,13 @@ class EngineSim(ABC):
         self.state[idx, 4:8] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
         self.state[idx, 8:14] = 0.0
 
+    def place(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray | None:
+        """set_pose where the engine can put the pegs. An engine whose pegs go anywhere (a
+        floating peg) returns None: all placed. One whose pegs are held by a robot returns
+        (k,) bool, False where a pose is out of its reach (that env's state is unchanged)."""
+        self.set_pose(idx, pos, quat)
+        return None
+
     @abstractmethod
     def set_material(
         self, idx: np.ndarray, static: np.ndarray, dynamic: np.ndarray, restitution: np.ndarray

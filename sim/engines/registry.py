@@ -138,11 +138,17 @@ class _EngineAction(argparse.Action):
 
     def __call__(self, parser, namespace, value, option_string=None) -> None:
         setattr(namespace, self.dest, value)
-        namespace.engine_options = {} if is_default(value) else {"engine": value}
+        # other flags (--robot) may have put their options there already
+        options = dict(getattr(namespace, "engine_options", None) or {})
+        options.pop("engine", None)
+        if not is_default(value):
+            options["engine"] = value
+        namespace.engine_options = options
 
 
-def add_engine_argument(p: argparse.ArgumentParser, help: str) -> None:
-    """`--sim`, the one engine flag of train, eval and the benches, and `--allow-cpu`."""
+def add_engine_argument(p: argparse.ArgumentParser, help: str, robots: bool = True) -> None:
+    """`--sim`, the one engine flag of train, eval and the benches, `--allow-cpu`, and (with
+    `robots`) `--robot`, what holds the peg (sim/robots/registry.py)."""
     p.add_argument(
         "--sim", choices=engine_names(), default=DEFAULT_ENGINE, action=_EngineAction, help=help
     )
@@ -154,12 +160,19 @@ def add_engine_argument(p: argparse.ArgumentParser, help: str) -> None:
         help=f"--sim {'|'.join(gpu)} without a GPU: run on the CPU device (hundreds of times "
         "slower than the default engine; for checks only)",
     )
+    if robots:
+        from sim.robots.registry import add_robot_argument
+
+        add_robot_argument(p)
 
 
 def check_device(args: argparse.Namespace) -> None:
     """Before any env is built: ValueError when `--sim`'s engine would run on the CPU unasked
     (see Engine.device_check)."""
     spec = get_engine(getattr(args, "sim", None))
+    from sim.robots.registry import check_robot
+
+    check_robot(getattr(args, "robot", None), spec.name)  # --robot on an engine without it
     if spec.device_check is not None:
         spec.load("device_check")(bool(getattr(args, "allow_cpu", False)))
 

@@ -15,6 +15,9 @@ import numpy as np
 from sim.engines.mujoco.scene import PEG_SITE
 from sim.robots.panda.model import HOME, JOINTS, VELOCITY_LIMITS, ArmSettings
 
+LIMIT_MARGIN = 0.2
+"""A start pose is taken only with every joint this far from its limits, rad."""
+
 
 def peg_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
     """(6, 7) the peg site's Jacobian (linear over angular, module frame) at d's positions
@@ -25,19 +28,37 @@ def peg_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
 
 
 def joint_velocity(
-    jac: np.ndarray, twist: np.ndarray, q: np.ndarray, settings: ArmSettings
+    jac: np.ndarray,
+    twist: np.ndarray,
+    q: np.ndarray,
+    settings: ArmSettings,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    dt: float,
 ) -> np.ndarray:
     """(n, 7) joint velocities that move the peg site at `twist` (n, 6: linear m/s, angular
     rad/s, module frame) for Jacobians jac (n, 6, 7) at joints q (n, 7): damped least
-    squares, plus a drift to HOME in the nullspace, scaled down as a whole where a joint
-    would pass its velocity limit (so the direction of motion is kept)."""
-    lam2 = settings.damping**2
-    jjt = jac @ np.swapaxes(jac, 1, 2) + lam2 * np.eye(6)
-    pinv = np.swapaxes(jac, 1, 2) @ np.linalg.inv(jjt)  # (n, 7, 6)
-    qd = np.einsum("nij,nj->ni", pinv, twist)
-    drift = settings.nullspace_gain * (HOME - q)
-    null = drift - np.einsum("nij,nj->ni", pinv @ jac, drift)
-    qd = qd + null
+    squares, plus a drift to HOME in the nullspace. A joint that would come within
+    LIMIT_MARGIN / 2 of its limit (lo, hi: (7,)) within `dt` s is locked and the rest
+    solve the task without it (twice at most); the result is scaled down as a whole where a
+    joint would pass its velocity limit, so the direction of motion is kept."""
+    n = len(q)
+    free = np.ones((n, 7))
+    band = 0.5 * LIMIT_MARGIN
+    for _ in range(3):
+        j = jac * free[:, None, :]
+        jjt = j @ np.swapaxes(j, 1, 2) + settings.damping**2 * np.eye(6)
+        pinv = np.swapaxes(j, 1, 2) @ np.linalg.inv(jjt)  # (n, 7, 6)
+        qd = np.einsum("nij,nj->ni", pinv, twist)
+        drift = settings.nullspace_gain * (HOME - q) * free
+        qd += drift - np.einsum("nij,nj->ni", pinv @ j, drift)
+        ahead = q + qd * dt
+        hits = ((ahead < lo + band) & (qd < 0)) | ((ahead > hi - band) & (qd > 0))
+        hits &= free > 0
+        if not hits.any():
+            break
+        free[hits] = 0.0
+    qd *= free
     over = np.max(np.abs(qd) / VELOCITY_LIMITS, axis=1)
     return qd / np.maximum(over, 1.0)[:, None]
 
@@ -99,19 +120,37 @@ def reach(
     *,
     tries: int = 8,
     tol: float = 1e-4,
+    margin: float = LIMIT_MARGIN,
 ) -> tuple[np.ndarray | None, list[str]]:
-    """place_peg from HOME, then from `tries - 1` postures drawn around it, until one
-    reaches the pose within `tol`: its joints (None if none did) and the joints at a limit
-    in the closest attempt (what stops the arm)."""
-    best: tuple[float, np.ndarray, list[str]] | None = None
+    """place_peg from HOME, then from `tries - 1` postures drawn around it; of the solutions
+    that reach the pose within `tol` with every joint at least `margin` rad from its limits
+    (an arm posed at a limit cannot follow every command from there), the one closest to
+    HOME (elbow up over the module: far postures reach down past the plate). Returns its
+    joints (None if none qualifies; d's qpos is then the closest attempt) and, for None,
+    the joints at or near a limit (what stops the arm)."""
     lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
+    best: tuple[float, np.ndarray] | None = None
+    closest: tuple[float, np.ndarray] | None = None
     for k in range(tries):
-        q0 = HOME if k == 0 else np.clip(HOME + rng.normal(0.0, 0.6, 7), lo, hi)
-        q, err, limits = place_peg(m, d, pos, quat, q0)
-        if err < tol:
-            return q, []
-        if best is None or err < best[0]:
-            best = (err, q, limits)
-    assert best is not None
-    d.qpos[:7] = best[1]
-    return None, best[2]
+        q0 = HOME if k == 0 else np.clip(HOME + rng.normal(0.0, 0.3 * k**0.5, 7), lo, hi)
+        q, err, _ = place_peg(m, d, pos, quat, q0)
+        room = float(np.min(np.minimum(q - lo, hi - q)))
+        if closest is None or (err, -room) < (
+            closest[0],
+            -float(np.min(np.minimum(closest[1] - lo, hi - closest[1]))),
+        ):
+            closest = (err, q)
+        if err < tol and room >= margin:
+            away = float(np.linalg.norm(q - HOME))
+            if best is None or away < best[0]:
+                best = (away, q)
+            if away < 1.0:  # near home: no need to look further
+                break
+    if best is not None:
+        d.qpos[:7] = best[1]
+        return best[1], []
+    assert closest is not None
+    q = closest[1]
+    d.qpos[:7] = q
+    near = np.flatnonzero((q - lo < margin) | (hi - q < margin))
+    return None, [JOINTS[i] for i in near]

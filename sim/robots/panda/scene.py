@@ -95,11 +95,14 @@ def build_arm_spec(
     physics: PhysicsConfig,
     mount: Mount | None = None,
     settings: ArmSettings | None = None,
+    visual: bool = True,
 ) -> mujoco.MjSpec:
     """The arm, the module and the peg in one spec (see the module doc); mount and
-    settings: the defaults of Mount and ArmSettings if None."""
+    settings: the defaults of Mount and ArmSettings if None; visual: with the arm's visual
+    meshes (for viewing; the simulation leaves them out)."""
     mount = mount or Mount()
-    spec = panda_spec(settings, grasp_width=min(grasp_width(asset) + 0.002, MAX_OPENING))
+    width = min(grasp_width(asset) + 0.002, MAX_OPENING)
+    spec = panda_spec(settings, grasp_width=width, visual=visual)
     spec.modelname = "panda_peg_in_hole"
     apply_to_spec(spec, physics)
     # the arm's links take their inertia from their geoms (the module's scene does not)

@@ -15,6 +15,7 @@ docs/robot.md.
 
 from __future__ import annotations
 
+import copy
 import os
 
 import mujoco
@@ -41,7 +42,7 @@ class PandaSim(EngineSim):
 
     saves_state = False
     parks_idle = False
-    rotates_modules = False
+    rotates_modules = True
 
     def __init__(
         self,
@@ -51,6 +52,7 @@ class PandaSim(EngineSim):
         mount: Mount | None = None,
         settings: ArmSettings | None = None,
         seed: int = 0,
+        spare_assets: list[ModuleAsset] | None = None,
     ) -> None:
         self.task = task
         self.settings = settings = (settings or ArmSettings()).validate()
@@ -58,10 +60,15 @@ class PandaSim(EngineSim):
         self.num_envs = n = len(env_assets)
         p = task.physics
         self.substeps = p.substeps
-        self.models = [build_arm_spec(a, p, mount, settings).compile() for a in env_assets]
+        self.mount = mount or Mount()
+        self._known = {a.id: a for a in list(env_assets) + list(spare_assets or ())}
+        self.pool: dict[str, mujoco.MjModel] = {}
+        """Module id -> its model, built when an env first takes the module (1 MB each)."""
+        self.models = [self._model(a.id) for a in env_assets]
         m0 = self.models[0]
         self.nthread = max(1, nthread if nthread is not None else os.cpu_count() or 1)
         self._scratch = [mujoco.MjData(m) for m in self.models]
+        # every model has the arm's 7 joints and no other state: one state size for all
         self._rollout = rollout.Rollout(nthread=0)
         self.nfull = mujoco.mj_stateSize(m0, STATE_SPEC)
         self.full = np.zeros((n, self.nfull))
@@ -71,9 +78,12 @@ class PandaSim(EngineSim):
         off = np.cumsum((0, *SENSOR_DIMS))
         self._slices = {s: slice(off[i], off[i + 1]) for i, s in enumerate(SENSORS)}
         self._lead = np.array(settings.kv) / np.array(settings.kp)
+        self._lo, self._hi = m0.jnt_range[:7, 0].copy(), m0.jnt_range[:7, 1].copy()
         self._rng = np.random.default_rng(seed)
         self.state = np.zeros((n, 14))
         self.state[:, 4] = 1.0
+        self.unreached: dict[int, str] = {}
+        """Env -> why its last refused pose was out of reach (place)."""
         self.wrist = np.zeros((n, 6))
         """(num_envs, 6) the wrist's force (N) and torque (N m) on the peg, peg frame, at the
         last physics step."""
@@ -82,9 +92,25 @@ class PandaSim(EngineSim):
 
     @classmethod
     def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> PandaSim:
-        if spare_assets:
-            raise ValueError("the Panda serves one env per module (no module rotation yet)")
-        return cls(env_assets, task, options.nthread)
+        return cls(env_assets, task, options.nthread, spare_assets=spare_assets)
+
+    def _model(self, module_id: str) -> mujoco.MjModel:
+        m = self.pool.get(module_id)
+        if m is None:
+            asset = self._known[module_id]
+            m = build_arm_spec(asset, self.task.physics, self.mount, self.settings,
+                               visual=False).compile()  # fmt: skip
+            self.pool[module_id] = m
+        return m
+
+    def set_module(self, e: int, module_id: str) -> None:
+        """Put env `e` on module `module_id` (one given at construction): its own copy of
+        the module's model (friction and restitution are the env's); place its peg next."""
+        if module_id not in self._known:
+            raise ValueError(f"module {module_id!r} was not given to this PandaSim")
+        self.models[e] = m = copy.copy(self._model(module_id))
+        self._scratch[e] = mujoco.MjData(m)
+        self.assets[e] = self._known[module_id]
 
     # ------------------------------------------------------------------ poses
 
@@ -117,6 +143,19 @@ class PandaSim(EngineSim):
         quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
         for j, e in enumerate(np.arange(self.num_envs)[idx]):
             self._place(int(e), pos[j], quat[j])
+
+    def place(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+        """set_pose for the poses the arm reaches; (k,) bool: which it did (the others keep
+        their state, and `unreached` holds why for each env)."""
+        quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+        done = np.ones(len(pos), dtype=bool)
+        for j, e in enumerate(np.arange(self.num_envs)[idx]):
+            try:
+                self._place(int(e), pos[j], quat[j])
+            except UnreachableError as err:
+                done[j] = False
+                self.unreached[int(e)] = str(err)
+        return done
 
     def set_material(self, idx, static, dynamic, restitution) -> None:
         del static
@@ -165,7 +204,8 @@ class PandaSim(EngineSim):
             mujoco.mj_comPos(m, d)
             jac[e] = peg_jacobian(m, d)
         q = self.full[:, 1:8]
-        qd = joint_velocity(jac, np.asarray(velocity, float), q, self.settings)
+        qd = joint_velocity(jac, np.asarray(velocity, float), q, self.settings, self._lo,
+                            self._hi, self.task.control_dt)  # fmt: skip
         h = self.task.physics.timestep
         t = h * np.arange(1, self.substeps + 1)
         self._ctrl[:] = q[:, None, :] + qd[:, None, :] * (t[None, :, None] + self._lead)

@@ -1,0 +1,102 @@
+"""The embodiments by name: what holds the peg. The default, None, is the paper's floating
+peg, driven by velocity actuators at its bottom; a robot holds it instead and turns the same
+velocity actions into its joints' motion.
+
+Importing this module loads no robot (the entries name their classes as "module:attribute"
+strings), so the command line lists them and checks `--robot` without MuJoCo's models. A new
+robot is a new entry here and a folder under sim/robots/ holding an EngineSim
+(sim/engines/base.py) whose pegs it holds.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from typing import Any
+
+from assetgen.core.references import load_reference
+
+
+@dataclass(frozen=True)
+class Robot:
+    """One registered robot."""
+
+    name: str
+    """As `--robot` and `robot=` spell it."""
+    label: str
+    """As summaries name it."""
+    sim: str
+    """The EngineSim class ("module:attribute") that PegInHoleVecEnv steps in place of the
+    engine's own."""
+    engines: tuple[str, ...]
+    """The engines (sim/engines/registry.py) that carry it."""
+    extra: str
+    """The pip extra that installs its model."""
+
+    def load_sim(self) -> Any:
+        return load_reference(self.sim)
+
+
+ROBOTS: dict[str, Robot] = {
+    r.name: r
+    for r in (
+        Robot(
+            name="panda",
+            label="Franka Emika Panda",
+            sim="sim.robots.panda.sim:PandaSim",
+            engines=("mujoco",),
+            extra="robot",
+        ),
+    )
+}
+
+
+def robot_names() -> tuple[str, ...]:
+    return tuple(ROBOTS)
+
+
+def get_robot(name: str) -> Robot:
+    """The robot named `name`; ValueError listing the valid names."""
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise ValueError(
+            f"robot {name!r} is not registered; valid robots: {', '.join(ROBOTS)} (or none: "
+            "the floating peg)"
+        ) from None
+
+
+def check_robot(robot: str | None, engine: str) -> Robot | None:
+    """The robot for `--robot` on `--sim engine` (None: the floating peg); ValueError when
+    the engine does not carry it."""
+    if robot is None:
+        return None
+    r = get_robot(robot)
+    if engine not in r.engines:
+        raise ValueError(
+            f"--robot {r.name} runs on --sim {' or '.join(r.engines)} only; --sim {engine} "
+            "does not carry the arm yet (leave --robot out for the floating peg)"
+        )
+    return r
+
+
+class _RobotAction(argparse.Action):
+    """Stores `--robot NAME` and adds {"robot": NAME} to `engine_options` (beside --sim's),
+    what the env factories take."""
+
+    def __call__(self, parser, namespace, value, option_string=None) -> None:
+        setattr(namespace, self.dest, value)
+        options = dict(getattr(namespace, "engine_options", None) or {})
+        options["robot"] = value
+        namespace.engine_options = options
+
+
+def add_robot_argument(p: argparse.ArgumentParser) -> None:
+    """`--robot`, the embodiment flag of train, eval and the benches."""
+    p.add_argument(
+        "--robot",
+        choices=robot_names(),
+        action=_RobotAction,
+        help="a robot holds the peg and follows the same velocity actions through its "
+        "controller (default: the paper's floating peg); needs the [robot] extra",
+    )
