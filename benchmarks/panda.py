@@ -1,7 +1,8 @@
 """The Panda holding the peg, measured: the controller's tracking in free space, the share of
 the task's spawn poses the arm reaches on a split, and its cost against the floating peg.
 
-    python -m benchmarks.panda tracking [--dataset test]
+    python -m benchmarks.panda tracking [--dataset test] [--controller ik|impedance]
+    python -m benchmarks.panda expert [--modules 64] [--controller ik|impedance]
     python -m benchmarks.panda reach --dataset test [--poses 4] [--modules N]
     python -m benchmarks.panda cost [--envs 32] [--steps 50]
 
@@ -9,6 +10,10 @@ tracking: each axis commanded alone at 0.1 m/s (linear) or 1 rad/s (angular) for
 the home pose over the module's entrance; prints the velocity's error after 0.1, 0.2 and
 0.3 s and the time to come within 5 %, the largest velocity across the commanded axis, and
 the joints' largest torque.
+expert: the direct scripted expert, one evaluation episode on each of the first --modules
+modules of the dataset (the evaluation's noise and spawns; spawns out of reach drawn again),
+through the arm and floating in the same run; prints success, failure and truncation shares
+and the reachable share of the spawn draws.
 reach: per module, the peg sizes the fingers must hold (refusals named) and `--poses` spawn
 poses drawn as the task draws them (full ranges); prints the reached share, overall and with
 the spawn tilt within 45 degrees, and the joints that stop the arm.
@@ -38,13 +43,20 @@ def _task(clearance: float) -> TaskConfig:
     return replace(TaskConfig(), physics=physics_for(clearance))
 
 
-def tracking(dataset: str, modules: int) -> dict:
+def _settings(controller: str):
+    from sim.robots.panda.model import ArmSettings
+
+    return ArmSettings(controller=controller).validate()
+
+
+def tracking(dataset: str, modules: int, controller: str = "impedance") -> dict:
     from sim.robots.panda.sim import PandaSim
 
     assets = load_dataset(dataset_root(dataset))[:modules]
     rows = {}
     for axis in range(6):
-        sim = PandaSim(assets, _task(assets[0].clearance), nthread=1)
+        sim = PandaSim(assets, _task(assets[0].clearance), nthread=1,
+                       settings=_settings(controller))  # fmt: skip
         target = 0.1 if axis < 3 else 1.0
         v = np.zeros((len(assets), 6))
         v[:, axis] = target
@@ -68,7 +80,37 @@ def tracking(dataset: str, modules: int) -> dict:
             "settle_s": None if settle is None else round((settle + 1) * 0.02, 2),
             "largest_across": float(across[5:].max()),
         }
-    return {"modules": len(assets), "axes": rows}
+    return {"modules": len(assets), "controller": controller, "axes": rows}
+
+
+def expert(dataset: str, modules: int, controller: str = "impedance", seed: int = 0) -> dict:
+    from sim.env import PegInHoleVecEnv, eval_config
+    from sim.task.expert import direct_expert_action
+
+    assets = load_dataset(dataset_root(dataset))[:modules]
+    config = replace(eval_config(), physics=physics_for(min(a.clearance for a in assets)))
+    out: dict = {"dataset": str(dataset), "modules": len(assets), "controller": controller}
+    for robot in ("panda", None):
+        env = PegInHoleVecEnv(assets, len(assets), config, assignment_seed=seed, robot=robot,
+                              robot_settings=_settings(controller))  # fmt: skip
+        obs = env.reset(seed=seed)
+        result = np.zeros(env.num_envs, dtype=int)  # 1 success, 2 failure, 3 truncated
+        t0 = time.perf_counter()
+        for _ in range(env.cfg.max_steps):
+            obs, _, term, trunc, info = env.step(direct_expert_action(obs))
+            new = (term | trunc) & (result == 0)
+            result[new] = np.where(info["success"][new], 1, np.where(term[new], 2, 3))
+            if (result > 0).all():
+                break
+        out["panda" if robot else "floating"] = {
+            "success": float(np.mean(result == 1)),
+            "failure": float(np.mean(result == 2)),
+            "truncated": float(np.mean(result == 3)),
+            "reachable_share_of_spawn_draws": 1.0 - env.spawn_redraws / env.spawn_draws,
+            "seconds": round(time.perf_counter() - t0, 1),
+        }
+        env.close()
+    return out
 
 
 def reach(dataset: str, poses: int, modules: int | None, seed: int) -> dict:
@@ -164,7 +206,8 @@ def cost(dataset: str, envs: int, steps: int) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.panda", description=__doc__)
-    p.add_argument("what", choices=["tracking", "reach", "cost"])
+    p.add_argument("what", choices=["tracking", "expert", "reach", "cost"])
+    p.add_argument("--controller", choices=["impedance", "ik"], default="impedance")
     p.add_argument("--dataset", default="test")
     p.add_argument("--poses", type=int, default=4, help="spawn poses per module (reach)")
     p.add_argument("--modules", type=int, help="the first N modules only")
@@ -173,7 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     if args.what == "tracking":
-        result = tracking(args.dataset, args.modules or 4)
+        result = tracking(args.dataset, args.modules or 4, args.controller)
+    elif args.what == "expert":
+        result = expert(args.dataset, args.modules or 64, args.controller, args.seed)
     elif args.what == "reach":
         result = reach(args.dataset, args.poses, args.modules, args.seed)
     else:

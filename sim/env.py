@@ -89,6 +89,7 @@ class PegInHoleVecEnv:
         physx: PhysxConfig | None = None,
         warp_device: str | None = None,
         robot: str | None = None,
+        robot_settings: Any = None,
     ) -> None:
         spec = get_engine(engine)
         self.engine = spec.name
@@ -130,7 +131,7 @@ class PegInHoleVecEnv:
                 f"engine = {spec.name!r} serves one env per module ({len(modules)} modules, "
                 f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
             )
-        options = EngineOptions(nthread, shard_size, physx, warp_device)
+        options = EngineOptions(nthread, shard_size, physx, warp_device, robot_settings)
         sim_class = spec.load("sim") if holder is None else holder.load_sim()
         self.sim = sim_class.create(assets, self.cfg, spare, options)
         self.control_dt = self.cfg.control_dt

@@ -35,6 +35,8 @@ class EngineOptions:
     """PhysX's settings (sim.engines.physx.config.PhysxConfig; None: the defaults)."""
     device: str | None = None
     """A Warp device for MuJoCo Warp ("cuda:0", "cpu"; None: the GPU if there is one)."""
+    robot_settings: Any = None
+    """A robot's own settings (sim.robots.panda.model.ArmSettings; None: its defaults)."""
 
 
 class EngineSim(ABC):

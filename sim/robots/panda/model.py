@@ -45,9 +45,9 @@ FINGER_BASE = 0.1654
 """The fingers' bodies sit this far along the flange's z, m."""
 MAX_OPENING = 0.08
 """The widest peg the fingers close on, m (two 40 mm strokes)."""
-HOME = np.array([0.0, -0.3, 0.0, -2.26, 0.0, 0.39, -0.8])
-"""The nullspace posture: elbow up, the flange pointing down 0.2 m over the hole (this
-model's joint 6 is zero where the standard Panda's is pi / 2)."""
+HOME = np.array([0.0, -0.233, 0.0, -2.459, 0.0, 0.656, 0.0])
+"""The nullspace posture: the peg upright 0.1 m over the plate's centre, elbow up, joint 7 at
+the middle of its range (the grasp's yaw, scene.GRASP_YAW, is chosen for that)."""
 
 
 class MissingRobotError(RuntimeError):
@@ -58,6 +58,25 @@ class MissingRobotError(RuntimeError):
 class ArmSettings:
     """The arm's drive and controller settings (docs/robot.md has the measurement that chose
     them)."""
+
+    controller: str = "impedance"
+    """"impedance": six actuators on the peg's site, force = kv (commanded - measured twist),
+    which MuJoCo maps to joint torques through the site's Jacobian at every physics step
+    (the floating peg's controller, through the arm), the joints' total torque clamped at
+    the published limits; "ik": damped least squares at the policy rate into joint
+    position ramps (kp, kv below)."""
+    kv_lin: float = 1000.0
+    """impedance: linear damping gain, N s/m (force per m/s of twist error)."""
+    kv_rot: float = 100.0
+    """impedance: angular damping gain, N m s/rad."""
+    max_force: float | None = 50.0
+    """impedance: the most force the twist actuators apply at the peg, N (None: only the
+    joints' torque limits bound it)."""
+    max_torque: float | None = 10.0
+    """impedance: the most torque they apply about the peg's bottom-face centre, N m."""
+    posture_stiffness: float = 0.5
+    """impedance: a joint spring to HOME, N m/rad, which holds the redundant motion (the
+    elbow) in place of a nullspace projection, small next to the task's forces."""
 
     kp: tuple[float, ...] = (4500.0, 4500.0, 3500.0, 3500.0, 2000.0, 2000.0, 2000.0)
     """Position gains of the joints' actuators, N m/rad."""
@@ -84,6 +103,10 @@ class ArmSettings:
                 "armature >= 0": self.armature >= 0,
                 "damping > 0": self.damping > 0,
                 "nullspace_gain >= 0": self.nullspace_gain >= 0,
+                "controller in (impedance, ik)": self.controller in ("impedance", "ik"),
+                "kv_lin > 0": self.kv_lin > 0,
+                "kv_rot > 0": self.kv_rot > 0,
+                "posture_stiffness >= 0": self.posture_stiffness >= 0,
             }.items()
             if not ok
         ]
@@ -156,6 +179,14 @@ def panda_spec(
         j.damping = [settings.joint_damping, 0.0, 0.0]
         j.armature = settings.armature
         j.actgravcomp = True
+        # every actuator's torque on the joint, gravity compensation included, within the
+        # published limit (the impedance's site actuators act on all joints at once)
+        j.actfrclimited = True
+        j.actfrcrange = [-TORQUE_LIMITS[i], TORQUE_LIMITS[i]]
+        if settings.controller == "impedance":
+            j.stiffness = [settings.posture_stiffness, 0.0, 0.0]
+            j.springref = float(HOME[i])
+            continue
         a = spec.add_actuator()
         a.name = f"arm{i + 1}"
         a.target = name

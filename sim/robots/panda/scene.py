@@ -16,6 +16,7 @@ Sensors, read through `mujoco.rollout`'s sensordata at every physics step:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -34,6 +35,10 @@ from sim.robots.panda.model import (
 from sim.task.config import PhysicsConfig
 
 WRIST_SITE = "wrist_site"
+GRASP_YAW = -0.765
+"""The peg's turn about the flange's z in the fingers, rad: upright over the hole, the arm then
+has joint 7 at the middle of its range (HOME), so any turn of the peg about its axis up to
+166 degrees either way is in the wrist's reach."""
 SENSORS = ("peg_pos", "peg_quat", "peg_linvel", "peg_angvel", "wrist_force", "wrist_torque")
 SENSOR_DIMS = (3, 4, 3, 3, 3, 3)
 
@@ -87,7 +92,32 @@ def peg_in_flange(asset: ModuleAsset, mount: Mount) -> tuple[np.ndarray, np.ndar
     away from the hand (the flange's -z) and its top lies `grip_depth` inside the fingertips."""
     h = float(asset.peg.vertices[:, 2].max())
     pos = np.array([0.0, 0.0, FINGER_TIP - grip_depth(asset, mount) + h])
-    return pos, np.array([0.0, 1.0, 0.0, 0.0])  # half a turn about the flange's x
+    # half a turn about the flange's x, after GRASP_YAW about its z
+    c, s = math.cos(0.5 * GRASP_YAW), math.sin(0.5 * GRASP_YAW)
+    return pos, np.array([0.0, c, s, 0.0])
+
+
+def add_twist_actuators(spec: mujoco.MjSpec, settings: ArmSettings) -> None:
+    """Six actuators on the peg's site, measured against the module's origin (the floating
+    peg's transmission): force = kv (ctrl - the site's velocity along the axis), which
+    MuJoCo turns into joint torques through the site's Jacobian."""
+    for k in range(6):
+        a = spec.add_actuator()
+        a.name = f"twist{k}"
+        a.trntype = mujoco.mjtTrn.mjTRN_SITE
+        a.target = PEG_SITE
+        a.refsite = REF_SITE
+        a.gear = np.eye(6)[k].tolist()
+        kv = settings.kv_lin if k < 3 else settings.kv_rot
+        a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        a.gainprm[0] = kv
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.biasprm[:3] = [0.0, 0.0, -kv]
+        a.ctrllimited = False
+        limit = settings.max_force if k < 3 else settings.max_torque
+        a.forcelimited = limit is not None  # the joints clamp their total torque as well
+        if limit is not None:
+            a.forcerange = [-limit, limit]
 
 
 def build_arm_spec(
@@ -123,6 +153,9 @@ def build_arm_spec(
     peg.pos, peg.quat = pos.tolist(), quat.tolist()
     peg.gravcomp = 1.0
     add_peg(spec, peg, asset, physics)
+    settings = settings or ArmSettings()
+    if settings.controller == "impedance":
+        add_twist_actuators(spec, settings)
     wrist = peg.add_site()
     wrist.name = WRIST_SITE
     wrist.pos = [0.0, 0.0, float(asset.peg.vertices[:, 2].max())]  # the peg's top

@@ -92,7 +92,8 @@ class PandaSim(EngineSim):
 
     @classmethod
     def create(cls, env_assets, task, spare_assets, options: EngineOptions) -> PandaSim:
-        return cls(env_assets, task, options.nthread, spare_assets=spare_assets)
+        return cls(env_assets, task, options.nthread, settings=options.robot_settings,
+                   spare_assets=spare_assets)  # fmt: skip
 
     def _model(self, module_id: str) -> mujoco.MjModel:
         m = self.pool.get(module_id)
@@ -131,7 +132,7 @@ class PandaSim(EngineSim):
             )
         d.qpos[:7] = q
         d.qvel[:] = 0.0
-        d.ctrl[:7] = q
+        d.ctrl[:] = q if self.settings.controller == "ik" else 0.0
         d.time = self.full[e, 0]
         mujoco.mj_forward(m, d)
         mujoco.mj_getState(m, d, self.full[e], STATE_SPEC)
@@ -196,6 +197,9 @@ class PandaSim(EngineSim):
         envs whose physics broke down (non-finite state)."""
         del live
         n = self.num_envs
+        if self.settings.controller == "impedance":
+            self._ctrl[:] = np.asarray(velocity, float)[:, None, :]
+            return self._run()
         jac = np.empty((n, 6, 7))
         for e in range(n):
             m, d = self.models[e], self._scratch[e]
@@ -209,6 +213,11 @@ class PandaSim(EngineSim):
         h = self.task.physics.timestep
         t = h * np.arange(1, self.substeps + 1)
         self._ctrl[:] = q[:, None, :] + qd[:, None, :] * (t[None, :, None] + self._lead)
+        return self._run()
+
+    def _run(self) -> np.ndarray:
+        """The substeps of every env at the controls in _ctrl; (num_envs,) bool: broke down."""
+        n = self.num_envs
         # one rollout call per env: the models differ in their pegs' meshes, so no MjData
         # can step another env's model (the floating peg's shards share a capacity model)
         for e in range(n):
