@@ -178,7 +178,8 @@ def cost(dataset: str, envs: int, steps: int) -> dict:
     assets = load_dataset(dataset_root(dataset))[:envs]
     task = _task(assets[0].clearance)
     rng = np.random.default_rng(0)
-    commands = [rng.uniform(-1, 1, (len(assets), 6)) * [0.05] * 3 + [0] * 3 for _ in range(steps)]
+    scale = np.array([0.05] * 3 + [0.5] * 3)  # gentle twists: m/s, rad/s
+    commands = [rng.uniform(-1, 1, (len(assets), 6)) * scale for _ in range(steps)]
     out = {}
     for name, make in (
         ("floating", lambda: BatchSim(assets, task, nthread=1, shard_size=8)),
