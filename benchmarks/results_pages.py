@@ -163,6 +163,37 @@ def referee_table() -> str:
     return "\n".join(rows) + "\n"
 
 
+ROBOT_AGENTS = ("scripted", "scripted-direct", "sac-teacher-free", "sac-direct-bc",
+                "sac-fast-bc", "dreamer-direct-bc")  # fmt: skip
+"""The robot page's rows: docs/results/robot/AGENT_{none,panda}_test64.json, the floating peg
+and the Panda on the same 64 test modules (rows whose files are missing are left out)."""
+
+
+def robot_table() -> str:
+    """The floating peg against the Panda (docs/results/robot/table.md), from the evaluation
+    files."""
+    import json
+
+    rows = [
+        "| agent | modules × attempts | floating | Panda | gap | median time (floating / "
+        "Panda) | Panda truncated / failed |\n|---|---|---|---|---|---|---|"
+    ]
+    for agent in ROBOT_AGENTS:
+        files = [RESULTS / "robot" / f"{agent}_{r}_test64.json" for r in ("none", "panda")]
+        if not all(f.exists() for f in files):
+            continue
+        free, arm = (json.loads(f.read_text()) for f in files)
+        assert free.get("robot") is None and arm.get("robot") == "panda", agent
+        rows.append(
+            f"| {agent} | {arm['modules']} × {arm['attempts']} | "
+            f"{100 * free['success_rate']:.2f} % | {100 * arm['success_rate']:.2f} % | "
+            f"{100 * (arm['success_rate'] - free['success_rate']):+.2f} | "
+            f"{free['median_time_to_success_s']:.2f} / {arm['median_time_to_success_s']:.2f} s | "
+            f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"
+        )
+    return "\n".join(rows) + "\n"
+
+
 ASSEMBLY: tuple[tuple[str, str], ...] = (
     ("scripted expert", "docs/results/assembly/scripted_assembly_test.json"),
     ("`sac-direct-bc`, zero-shot", "docs/results/assembly/sac-direct-bc_assembly_test.json"),
@@ -272,7 +303,8 @@ def main(argv: list[str] | None = None) -> int:
         if page.readme:
             replace_table(ROOT / "README.md", page_table(page, compact=True))
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
-    for name, make in (("referee", referee_table), ("assembly", assembly_table)):
+    pages = (("referee", referee_table), ("assembly", assembly_table), ("robot", robot_table))
+    for name, make in pages:
         path = RESULTS / name / "table.md"
         if args.check:
             if not path.exists() or path.read_text() != make():

@@ -245,3 +245,20 @@ def test_the_scene_command_writes_an_mjcf_that_loads_on_its_own(tmp_path, capsys
     code = cli.main(["scene", "nonesuch", "--robot", "panda", "--out", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "nonesuch" in err[0]
+
+
+def test_spawns_out_of_reach_are_drawn_again_and_counted(task) -> None:
+    from sim.env import PegInHoleVecEnv
+    from sim.task.config import EVAL_CONFIG
+
+    config = replace(EVAL_CONFIG, physics=task.physics)
+    arm = PegInHoleVecEnv(sim_dataset(), 4, config, robot="panda")
+    floating = PegInHoleVecEnv(sim_dataset(), 4, config)
+    for seed in range(5):
+        arm.reset(seed=seed)
+        floating.reset(seed=seed)
+        # every arm's peg is where its spawn put it: the arm reached it
+        assert np.abs(arm.sim.state[:, 3] - arm.entrance[:, 2, 3]).min() > 0.01
+    assert floating.spawn_redraws == 0 and floating.spawn_draws == 20
+    assert 0 < arm.spawn_redraws < arm.spawn_draws
+    assert arm.spawn_draws - arm.spawn_redraws == 20  # one placed pose per env and reset

@@ -29,7 +29,12 @@ from mujoco import rollout
 
 from sim.assets.loading import ModuleAsset
 from sim.engines.base import EngineOptions, EngineSim
-from sim.engines.mujoco.scene import build_model, contact_solref, restitution_to_dampratio
+from sim.engines.mujoco.scene import (
+    build_model,
+    contact_solref,
+    geom_contacts,
+    restitution_to_dampratio,
+)
 from sim.task import kernel as K
 from sim.task.config import TaskConfig
 
@@ -338,15 +343,7 @@ class BatchSim(EngineSim):
         m, d = self.models[self.shard_of[i]], self._scratch
         mujoco.mj_setState(m, d, self.shard_state[self.shard_of[i]], STATE_SPEC)
         mujoco.mj_forward(m, d)
-        peg = range(self.peg_geom[i], self.peg_geom[i] + self.peg_ngeom[i])
-        mine = [c for c in range(d.ncon) if d.contact[c].geom1 in peg or d.contact[c].geom2 in peg]
-        dist = np.array([d.contact[c].dist for c in mine])
-        force = np.zeros(len(mine))
-        f6 = np.zeros(6)
-        for j, c in enumerate(mine):
-            mujoco.mj_contactForce(m, d, c, f6)
-            force[j] = f6[0]
-        return dist, force
+        return geom_contacts(m, d, range(self.peg_geom[i], self.peg_geom[i] + self.peg_ngeom[i]))
 
     def close(self) -> None:
         self._rollout.close()

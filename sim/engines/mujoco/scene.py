@@ -58,6 +58,21 @@ def restitution_to_dampratio(e: np.ndarray | float, physics: PhysicsConfig) -> n
     return physics.dampratio - e * (physics.dampratio - physics.min_dampratio)
 
 
+def geom_contacts(
+    m: mujoco.MjModel, d: mujoco.MjData, geoms: range
+) -> tuple[np.ndarray, np.ndarray]:
+    """The contacts of d (forward run) that involve `geoms`: distances (k,) m (negative:
+    penetration) and normal forces (k,) N."""
+    mine = [c for c in range(d.ncon) if d.contact[c].geom1 in geoms or d.contact[c].geom2 in geoms]
+    dist = np.array([d.contact[c].dist for c in mine])
+    force = np.zeros(len(mine))
+    f6 = np.zeros(6)
+    for j, c in enumerate(mine):
+        mujoco.mj_contactForce(m, d, c, f6)
+        force[j] = f6[0]
+    return dist, force
+
+
 def _add_mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray) -> None:
     mesh = spec.add_mesh()
     mesh.name = name

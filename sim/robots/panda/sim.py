@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import os
+from dataclasses import asdict
 
 import mujoco
 import numpy as np
@@ -24,7 +25,7 @@ from mujoco import rollout
 
 from sim.assets.loading import ModuleAsset
 from sim.engines.base import EngineOptions, EngineSim
-from sim.engines.mujoco.scene import restitution_to_dampratio
+from sim.engines.mujoco.scene import contact_solref, geom_contacts, restitution_to_dampratio
 from sim.robots.panda.kinematics import joint_velocity, peg_jacobian, reach
 from sim.robots.panda.model import ArmSettings
 from sim.robots.panda.scene import SENSOR_DIMS, SENSORS, Mount, build_arm_spec
@@ -160,8 +161,6 @@ class PandaSim(EngineSim):
 
     def set_material(self, idx, static, dynamic, restitution) -> None:
         del static
-        from sim.engines.mujoco.scene import contact_solref
-
         solref = contact_solref(restitution_to_dampratio(restitution, self.task.physics),
                                 self.task.physics)  # fmt: skip
         for j, e in enumerate(np.arange(self.num_envs)[idx]):
@@ -236,6 +235,10 @@ class PandaSim(EngineSim):
             self._read(e, self._sensor[e, -1])
         return ~np.isfinite(self.full).all(axis=1)
 
+    def protocol(self) -> dict:
+        """The arm's settings and mount, for an evaluation file."""
+        return {"arm": asdict(self.settings), "mount": asdict(self.mount)}
+
     def gather(self) -> None:
         """The state is read at every step (sensors); nothing to refresh."""
 
@@ -244,15 +247,7 @@ class PandaSim(EngineSim):
         mujoco.mj_setState(m, d, self.full[i], STATE_SPEC)
         mujoco.mj_forward(m, d)
         b = m.body("peg")
-        peg = range(int(b.geomadr[0]), int(b.geomadr[0] + b.geomnum[0]))
-        mine = [c for c in range(d.ncon) if d.contact[c].geom1 in peg or d.contact[c].geom2 in peg]
-        dist = np.array([d.contact[c].dist for c in mine])
-        force = np.zeros(len(mine))
-        f6 = np.zeros(6)
-        for j, c in enumerate(mine):
-            mujoco.mj_contactForce(m, d, c, f6)
-            force[j] = f6[0]
-        return dist, force
+        return geom_contacts(m, d, range(int(b.geomadr[0]), int(b.geomadr[0] + b.geomnum[0])))
 
     def close(self) -> None:
         self._rollout.close()
