@@ -13,7 +13,7 @@ reported too).
 `rollout` reuses one MjData per thread across models, so every MjData array sized by the
 model must be large enough for each of them. Our models differ only in geometry counts
 (geoms, meshes, BVH nodes), so the per-thread MjData are made from a *capacity model* whose
-every data-sizing count is at least every shard's (checked in `_check_capacity`); the rest
+every data-sizing count is at least every shard's (checked in `check_capacity`); the rest
 (nq, nv, nu, ...) is equal by construction (phantom slots fill the last shard).
 """
 
@@ -59,7 +59,7 @@ def _sizes(m: mujoco.MjModel) -> dict[str, int]:
     }
 
 
-def _check_capacity(capacity: mujoco.MjModel, models: list[mujoco.MjModel]) -> None:
+def check_capacity(capacity: mujoco.MjModel, models: list[mujoco.MjModel]) -> None:
     """Raise ValueError unless an MjData of `capacity` can step every model in `models`."""
     ref = _sizes(capacity)
     for m in models:
@@ -154,7 +154,7 @@ class BatchSim(EngineSim):
         big = max(distinct, key=lambda m: (m.nbvh, m.ngeom))
         pad = max(m.ngeom for m in distinct) - big.ngeom
         capacity = build(group_of[key_of[id(big)]], pad) if pad > 0 else big
-        _check_capacity(capacity, distinct)
+        check_capacity(capacity, distinct)
         self.nthread = max(1, nthread if nthread is not None else os.cpu_count() or 1)
         self.datas = [mujoco.MjData(capacity) for _ in range(self.nthread)]
         self._rollout = rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)

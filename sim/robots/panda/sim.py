@@ -25,6 +25,7 @@ from mujoco import rollout
 
 from sim.assets.loading import ModuleAsset
 from sim.engines.base import EngineOptions, EngineSim
+from sim.engines.mujoco.batch import check_capacity
 from sim.engines.mujoco.scene import contact_solref, geom_contacts, restitution_to_dampratio
 from sim.robots.panda.kinematics import joint_velocity, peg_jacobian, reach
 from sim.robots.panda.model import ArmSettings
@@ -64,13 +65,24 @@ class PandaSim(EngineSim):
         self.mount = mount or Mount()
         self._known = {a.id: a for a in list(env_assets) + list(spare_assets or ())}
         self.pool: dict[str, mujoco.MjModel] = {}
-        """Module id -> its model, built when an env first takes the module (1 MB each)."""
-        self.models = [self._model(a.id) for a in env_assets]
+        """Module id -> its model (0.75 MB each), for every module given."""
+        for mid in self._known:
+            self._model(mid)
+        self.models = [copy.copy(self.pool[a.id]) for a in env_assets]
         m0 = self.models[0]
         self.nthread = max(1, nthread if nthread is not None else os.cpu_count() or 1)
         self._scratch = [mujoco.MjData(m) for m in self.models]
-        # every model has the arm's 7 joints and no other state: one state size for all
-        self._rollout = rollout.Rollout(nthread=0)
+        # `rollout` steps every env's model with one MjData per thread: those come from a
+        # capacity model (batch.py's reasoning), the module with the most BVH nodes padded
+        # with inert geoms to the largest geom count; every model has the arm's 7 joints and
+        # no other state, so one state size serves all
+        distinct = list(self.pool.values())
+        big_id = max(self.pool, key=lambda k: (self.pool[k].nbvh, self.pool[k].ngeom))
+        pad = max(m.ngeom for m in distinct) - self.pool[big_id].ngeom
+        capacity = self.pool[big_id] if pad == 0 else self._build(big_id, pad)
+        check_capacity(capacity, distinct)
+        self.datas = [mujoco.MjData(capacity) for _ in range(self.nthread)]
+        self._rollout = rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)
         self.nfull = mujoco.mj_stateSize(m0, STATE_SPEC)
         self.full = np.zeros((n, self.nfull))
         self._sensor = np.zeros((n, p.substeps, m0.nsensordata))
@@ -96,13 +108,21 @@ class PandaSim(EngineSim):
         return cls(env_assets, task, options.nthread, settings=options.robot_settings,
                    spare_assets=spare_assets)  # fmt: skip
 
+    def _build(self, module_id: str, pad_geoms: int = 0) -> mujoco.MjModel:
+        spec = build_arm_spec(self._known[module_id], self.task.physics, self.mount,
+                              self.settings, visual=False)  # fmt: skip
+        for i in range(pad_geoms):  # inert: they only enlarge the model (capacity)
+            g = spec.worldbody.add_geom()
+            g.name = f"pad{i}"
+            g.size = [0.001, 0, 0]
+            g.pos = [0.0, 0.0, -10.0]
+            g.contype = g.conaffinity = 0
+        return spec.compile()
+
     def _model(self, module_id: str) -> mujoco.MjModel:
         m = self.pool.get(module_id)
         if m is None:
-            asset = self._known[module_id]
-            m = build_arm_spec(asset, self.task.physics, self.mount, self.settings,
-                               visual=False).compile()  # fmt: skip
-            self.pool[module_id] = m
+            m = self.pool[module_id] = self._build(module_id)
         return m
 
     def set_module(self, e: int, module_id: str) -> None:
@@ -110,7 +130,7 @@ class PandaSim(EngineSim):
         the module's model (friction and restitution are the env's); place its peg next."""
         if module_id not in self._known:
             raise ValueError(f"module {module_id!r} was not given to this PandaSim")
-        self.models[e] = m = copy.copy(self._model(module_id))
+        self.models[e] = m = copy.copy(self.pool[module_id])
         self._scratch[e] = mujoco.MjData(m)
         self.assets[e] = self._known[module_id]
 
@@ -217,19 +237,16 @@ class PandaSim(EngineSim):
     def _run(self) -> np.ndarray:
         """The substeps of every env at the controls in _ctrl; (num_envs,) bool: broke down."""
         n = self.num_envs
-        # one rollout call per env: the models differ in their pegs' meshes, so no MjData
-        # can step another env's model (the floating peg's shards share a capacity model)
-        for e in range(n):
-            self._rollout.rollout(
-                [self.models[e]],
-                [self._scratch[e]],
-                self.full[e : e + 1],
-                self._ctrl[e : e + 1],
-                nstep=self.substeps,
-                state=self._out[e : e + 1],
-                sensordata=self._sensor[e : e + 1],
-                skip_checks=True,
-            )
+        self._rollout.rollout(
+            self.models,
+            self.datas,
+            self.full,
+            self._ctrl,
+            nstep=self.substeps,
+            state=self._out,
+            sensordata=self._sensor,
+            skip_checks=True,
+        )
         self.full[:] = self._out[:, -1]
         for e in range(n):
             self._read(e, self._sensor[e, -1])
@@ -245,6 +262,7 @@ class PandaSim(EngineSim):
     def contacts(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         m, d = self.models[i], self._scratch[i]
         mujoco.mj_setState(m, d, self.full[i], STATE_SPEC)
+        d.ctrl[:] = self._ctrl[i, -1]  # the controls of the last physics step (the push)
         mujoco.mj_forward(m, d)
         b = m.body("peg")
         return geom_contacts(m, d, range(int(b.geomadr[0]), int(b.geomadr[0] + b.geomnum[0])))
