@@ -45,7 +45,7 @@ from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.robots.registry import check_robot
 from sim.task import kernel as K
 from sim.task import rules as T
-from sim.task.config import TaskConfig
+from sim.task.config import READINGS, TaskConfig
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
 
@@ -206,7 +206,19 @@ class PegInHoleVecEnv:
         self._return = np.zeros(n)
         self._c_prev = np.zeros(n)
         self._d0 = np.ones(n)
-        self._obs = np.zeros((n, T.OBS_DIM), dtype=np.float32)
+        # a robot's readings after the 18 pose entries (TaskConfig.readings), with their noise
+        self.obs_dim = T.OBS_DIM + sum(READINGS[r] for r in self.cfg.readings)
+        noise: list[float] = []
+        for r in self.cfg.readings:
+            noise += (
+                [self.cfg.wrist_force_noise] * 3 + [self.cfg.wrist_torque_noise] * 3
+                if r == "wrist"
+                else [self.cfg.joint_position_noise] * 7 + [self.cfg.joint_velocity_noise] * 7
+            )
+        self._reading_noise = np.array(noise)
+        for r in self.cfg.readings:  # an engine without them refuses here, not mid-run
+            self.sim.readings(r)
+        self._obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
         self._act_noise = np.array([cfg.act_lin_noise] * 3 + [cfg.act_ang_noise] * 3)
@@ -294,9 +306,23 @@ class PegInHoleVecEnv:
         idx = np.arange(self.num_envs)[idx]
         cfg = self.cfg
         e = T.pose_noise(self.rng, len(idx)) if cfg.noise else np.zeros((len(idx), 6), np.float32)
-        out = np.empty((len(idx), T.OBS_DIM), dtype=np.float32)
+        out = np.empty((len(idx), self.obs_dim), dtype=np.float32)
         K.observe(self.sim.state, idx, self._kframes, e, self._step_params, out)
+        self._add_readings(idx, out)
         return out
+
+    def _add_readings(
+        self, idx: np.ndarray, out: np.ndarray, rows: np.ndarray | slice = slice(None)
+    ) -> None:
+        """The readings of envs idx (TaskConfig.readings) into out[rows, 18:] (rows: where
+        out holds those envs), with their noise (drawn only when there are readings: without
+        them, the draws are the paper's)."""
+        if not self.cfg.readings:
+            return
+        values = np.concatenate([self.sim.readings(r)[idx] for r in self.cfg.readings], axis=1)
+        if self.cfg.noise:
+            values = values + self._reading_noise * self.rng.standard_normal(values.shape)
+        out[rows, T.OBS_DIM :] = values
 
     def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Bookkeeping of episodes starting at poses pos (k, 3), quat (k, 4) in envs idx."""
@@ -478,7 +504,7 @@ class PegInHoleVecEnv:
             unstable = self.sim.step(velocity, live)
         self.global_step += n
         self._steps += 1
-        obs = np.empty((n, T.OBS_DIM), dtype=np.float32)
+        obs = np.empty((n, self.obs_dim), dtype=np.float32)
         reward = np.empty(n)
         success = np.empty(n, dtype=bool)
         failure = np.empty(n, dtype=bool)
@@ -505,6 +531,9 @@ class PegInHoleVecEnv:
         done = terminated | truncated
         if unstable.any():
             self.unstable_count += int(unstable.sum())
+        # an unstable env keeps its last observation, readings included
+        stable = np.flatnonzero(~unstable)
+        self._add_readings(stable, obs, stable)
         info = {
             "final_obs": obs.copy(),
             "success": success,
@@ -631,6 +660,7 @@ def train_config(
     module_replay: float | None = None,
     near_starts: float | None = None,
     axis_shaping: float | None = None,
+    readings: tuple[str, ...] = (),
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -648,6 +678,8 @@ def train_config(
         config = replace(config, near_starts=float(near_starts)).validate()
     if axis_shaping is not None:
         config = replace(config, dist_axis_weight=float(axis_shaping)).validate()
+    if readings:
+        config = replace(config, readings=tuple(readings)).validate()
     return root, config
 
 
@@ -663,6 +695,7 @@ def make_train_env(
     near_starts: float | None = None,
     axis_shaping: float | None = None,
     robot: str | None = None,
+    readings: tuple[str, ...] = (),
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -673,7 +706,8 @@ def make_train_env(
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
     task on the device). near_starts: TaskConfig.near_starts; axis_shaping:
-    TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats)."""
+    TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats);
+    readings: what it adds to the observation (TaskConfig.readings)."""
     root, config = train_config(
         dataset,
         curriculum_steps,
@@ -682,6 +716,7 @@ def make_train_env(
         module_replay,
         near_starts,
         axis_shaping,
+        readings,
     )
     return PegInHoleVecEnv(
         root,
@@ -721,6 +756,7 @@ def make_eval_env(
     engine: str = DEFAULT_ENGINE,
     physx: PhysxConfig | None = None,
     robot: str | None = None,
+    readings: tuple[str, ...] = (),
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -730,11 +766,14 @@ def make_eval_env(
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
     keep_physics: as for make_train_env. engine: a registered engine's name (physx with the PhysX
-    settings `physx`). robot: a registered robot holds the peg (None: it floats)."""
+    settings `physx`). robot: a registered robot holds the peg (None: it floats); readings:
+    what it adds to the observation (TaskConfig.readings)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)
     config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
+    if readings:
+        config = replace(config, readings=tuple(readings)).validate()
     ids = None
     if modules is not None:
         if modules < 1:
@@ -770,6 +809,8 @@ def make_eval_env(
     }
     if robot is not None:  # the floating peg's files keep their fields as they were
         env.protocol["robot"] = env.robot
+    if readings:
+        env.protocol["readings"] = list(readings)
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
     env.protocol.update(env.sim.protocol())  # the engine's own settings, if any

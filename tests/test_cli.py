@@ -222,7 +222,8 @@ def test_commands_start_without_importing_torch():
     code = (
         "import sys, cli; p = cli.build_parser(); "
         "light = ('sim', 'sim.engines', 'sim.engines.registry', 'sim.bench', "
-        "'sim.bench.command', 'sim.task', 'sim.task.expert'); "
+        "'sim.bench.command', 'sim.task', 'sim.task.expert', 'sim.robots', 'sim.robots.registry', "
+        "'sim.robots.scene_command'); "
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('torch', 'sim', 'mujoco', "
         "'numba') and m not in light); "
         "assert not bad, f'imported {bad}'; "

@@ -262,3 +262,44 @@ def test_spawns_out_of_reach_are_drawn_again_and_counted(task) -> None:
     assert floating.spawn_redraws == 0 and floating.spawn_draws == 20
     assert 0 < arm.spawn_redraws < arm.spawn_draws
     assert arm.spawn_draws - arm.spawn_redraws == 20  # one placed pose per env and reset
+
+
+def test_readings_join_the_observation_with_their_noise(task) -> None:
+    from sim.env import PegInHoleVecEnv
+    from sim.task.config import EVAL_CONFIG
+
+    quiet = replace(EVAL_CONFIG, physics=task.physics, noise=False)
+    plain = PegInHoleVecEnv(sim_dataset(), 4, quiet, robot="panda")
+    both = PegInHoleVecEnv(sim_dataset(), 4, replace(quiet, readings=("wrist", "joints")),
+                           robot="panda")  # fmt: skip
+    assert (plain.obs_dim, both.obs_dim) == (18, 38)
+    a, b = plain.reset(seed=2), both.reset(seed=2)
+    np.testing.assert_array_equal(a, b[:, :18])  # the pose entries are the same
+    np.testing.assert_allclose(b[:, 18:24], both.sim.wrist, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(b[:, 24:38], both.sim.full[:, 1:15], rtol=1e-6, atol=1e-6)
+    b = both.step(np.zeros((4, 6)))[0]
+    np.testing.assert_allclose(b[:, 18:24], both.sim.wrist, rtol=1e-6, atol=1e-6)
+    # with noise: the wrist force's error has the configured std (1 N)
+    noisy = PegInHoleVecEnv(sim_dataset(), 4, replace(quiet, noise=True, readings=("wrist",)),
+                            robot="panda")  # fmt: skip
+    noisy.reset(seed=0)
+    errors = []
+    for _ in range(25):
+        obs = noisy.step(np.zeros((4, 6)))[0]
+        errors.append(obs[:, 18:21] - noisy.sim.wrist[:, :3])
+    assert 0.8 < float(np.std(errors)) < 1.2
+
+
+def test_readings_need_a_robot_in_one_line(capsys) -> None:
+    import cli
+    from sim.env import PegInHoleVecEnv
+    from sim.task.config import TaskConfig
+
+    with pytest.raises(ValueError, match="a robot's"):
+        PegInHoleVecEnv(sim_dataset(), 2, TaskConfig(readings=("wrist",)))
+    code = cli.main(["eval", "--agent", "scripted", "--dataset", str(sim_dataset()),
+                     "--readings", "wrist"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "give --robot panda" in err[0], err
+    with pytest.raises(ValueError, match="readings"):
+        TaskConfig(readings=("elbow",)).validate()

@@ -131,6 +131,14 @@ class EngineSim(ABC):
 
         return run
 
+    def readings(self, name: str) -> np.ndarray:
+        """(num_envs, k) the reading `name` (sim.task.config.READINGS) at the last step; an
+        engine whose peg floats has none (ValueError)."""
+        raise ValueError(
+            f"the {name!r} reading is a robot's (the floating peg has no wrist or joints): "
+            "give --robot panda, or leave the readings out"
+        )
+
     def device_model_bytes(self) -> int | None:
         """Bytes of the model held on the engine's device (None: the engine runs on the
         host)."""

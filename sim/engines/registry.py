@@ -173,6 +173,11 @@ def check_device(args: argparse.Namespace) -> None:
     from sim.robots.registry import check_robot
 
     check_robot(getattr(args, "robot", None), spec.name)  # --robot on an engine without it
+    if getattr(args, "readings", None) and getattr(args, "robot", None) is None:
+        raise ValueError(
+            f"--readings {','.join(args.readings)}: the floating peg has no wrist or joints; "
+            "give --robot panda as well"
+        )
     if spec.device_check is not None:
         spec.load("device_check")(bool(getattr(args, "allow_cpu", False)))
 

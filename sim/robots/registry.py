@@ -91,12 +91,39 @@ class _RobotAction(argparse.Action):
         namespace.engine_options = options
 
 
+class _ReadingsAction(argparse.Action):
+    """Stores `--readings a,b` and adds {"readings": ("a", "b")} to `engine_options`."""
+
+    def __call__(self, parser, namespace, value, option_string=None) -> None:
+        from sim.task.config import READINGS
+
+        names = tuple(v for v in value.split(",") if v)
+        unknown = [v for v in names if v not in READINGS]
+        if unknown or not names or len(set(names)) != len(names):
+            parser.error(
+                f"--readings {value!r}: give some of {', '.join(READINGS)}, comma-separated, "
+                "each once"
+            )
+        setattr(namespace, self.dest, names)
+        options = dict(getattr(namespace, "engine_options", None) or {})
+        options["readings"] = names
+        namespace.engine_options = options
+
+
 def add_robot_argument(p: argparse.ArgumentParser) -> None:
-    """`--robot`, the embodiment flag of train, eval and the benches."""
+    """`--robot`, the embodiment flag of train, eval and the benches, and `--readings`,
+    what the robot adds to the observation."""
     p.add_argument(
         "--robot",
         choices=robot_names(),
         action=_RobotAction,
         help="a robot holds the peg and follows the same velocity actions through its "
         "controller (default: the paper's floating peg); needs the [robot] extra",
+    )
+    p.add_argument(
+        "--readings",
+        metavar="NAMES",
+        action=_ReadingsAction,
+        help="with --robot: readings appended to the observation, comma-separated: wrist "
+        "(force/torque at the flange, 6 values), joints (positions and velocities, 14)",
     )

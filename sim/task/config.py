@@ -16,6 +16,10 @@ from assetgen.core.mujoco_config import PhysicsConfig
 __all__ = ["EVAL_CONFIG", "PhysicsConfig", "TaskConfig"]
 
 
+READINGS = {"wrist": 6, "joints": 14}
+"""The readings a robot adds to the observation (TaskConfig.readings) and their widths."""
+
+
 @dataclass(frozen=True)
 class TaskConfig:
     """The peg-in-hole task (the paper's numbers, see docs/task.md). Units: m, s, rad."""
@@ -88,6 +92,19 @@ class TaskConfig:
     the plate's thickness: deeper than any contact transient, see task.failed)."""
     failure_reward: float = -1.0
     """Reward of the step that ends an episode in failure."""
+    readings: tuple[str, ...] = ()
+    """Readings appended to the 18-D observation, in this order, from READINGS: "wrist"
+    (the wrist's force N and torque N m on the peg, peg frame: 6 values) and "joints" (the
+    arm's joint positions rad and velocities rad/s: 14). A robot's only: the floating peg
+    has neither. Empty: the paper's observation, draw for draw."""
+    wrist_force_noise: float = 1.0
+    """Std of the Gaussian noise on each wrist force reading, N (Forge's 1 N)."""
+    wrist_torque_noise: float = 0.05
+    """Std of the Gaussian noise on each wrist torque reading, N m."""
+    joint_position_noise: float = 0.001
+    """Std of the Gaussian noise on each joint position reading, rad."""
+    joint_velocity_noise: float = 0.01
+    """Std of the Gaussian noise on each joint velocity reading, rad/s."""
     physics: PhysicsConfig | None = None
     """MuJoCo settings. None: the project's physics for the modules' clearance
     (assetgen.core.mujoco_config.physics_for: finer steps for finer clearances), which the
@@ -121,6 +138,15 @@ class TaskConfig:
             "0 <= near_start_scale <= 1": 0.0 <= self.near_start_scale <= 1.0,
             "dist_axis_weight >= 0 and finite": math.isfinite(self.dist_axis_weight)
             and self.dist_axis_weight >= 0.0,
+            f"readings from {sorted(READINGS)}, each once": set(self.readings) <= set(READINGS)
+            and len(set(self.readings)) == len(self.readings),
+            "reading noises >= 0": min(
+                self.wrist_force_noise,
+                self.wrist_torque_noise,
+                self.joint_position_noise,
+                self.joint_velocity_noise,
+            )
+            >= 0,
             "module_replay is None or in (0, 1]": self.module_replay is None
             or 0.0 < self.module_replay <= 1.0,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],

@@ -252,6 +252,15 @@ class PandaSim(EngineSim):
             self._read(e, self._sensor[e, -1])
         return ~np.isfinite(self.full).all(axis=1)
 
+    def readings(self, name: str) -> np.ndarray:
+        """The wrist's force and torque (num_envs, 6), or the joints' positions and
+        velocities (num_envs, 14)."""
+        if name == "wrist":
+            return self.wrist
+        if name == "joints":
+            return self.full[:, 1:15]  # qpos (7), then qvel (7): FULLPHYSICS after time
+        return super().readings(name)
+
     def protocol(self) -> dict:
         """The arm's settings and mount, for an evaluation file."""
         return {"arm": asdict(self.settings), "mount": asdict(self.mount)}
