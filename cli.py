@@ -142,6 +142,8 @@ PROJECT_ERRORS = frozenset((
     "rl.report_load.ReportError",
     "rl.dreamer.replay.ReplayMemoryError",
     "preview.scene.PreviewError",
+    "sim.robots.panda.model.MissingRobotError",
+    "sim.robots.panda.sim.UnreachableError",
 ))  # fmt: skip
 """The project's exceptions whose message is written for the user (it names the file or
 value and says what to do), by class path: matching them imports no package (rl's would
