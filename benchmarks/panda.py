@@ -60,14 +60,13 @@ def tracking(dataset: str, modules: int, controller: str = "impedance") -> dict:
         target = 0.1 if axis < 3 else 1.0
         v = np.zeros((len(assets), 6))
         v[:, axis] = target
-        speeds, torques = [], []
+        speeds = []
         for _ in range(25):
             sim.step(v)
             w = np.zeros((len(assets), 3))
             for i, s in enumerate(sim.state):
                 mujoco.mju_rotVecQuat(w[i], s[11:14], s[4:8])
             speeds.append(np.concatenate([sim.state[:, 8:11], w], axis=1))
-            torques.append(np.abs(sim.full[:, 8:15]).max())  # qvel, for scale only
         got = np.array(speeds)  # (steps, envs, 6)
         err = np.abs(got[:, :, axis] - target) / target
         within = (err < 0.05).all(axis=1)
@@ -180,18 +179,18 @@ def cost(dataset: str, envs: int, steps: int) -> dict:
     rng = np.random.default_rng(0)
     scale = np.array([0.05] * 3 + [0.5] * 3)  # gentle twists: m/s, rad/s
     commands = [rng.uniform(-1, 1, (len(assets), 6)) * scale for _ in range(steps)]
+    # the same start for both: 0.2 m over the entrance, upright
+    pos = np.array([a.entrance[:3, 3] + 0.2 * a.entrance[:3, 2] for a in assets])
+    quat = np.zeros((len(assets), 4))
+    for i, a in enumerate(assets):
+        mujoco.mju_mat2Quat(quat[i], a.entrance[:3, :3].ravel())
     out = {}
     for name, make in (
         ("floating", lambda: BatchSim(assets, task, nthread=1, shard_size=8)),
         ("panda", lambda: PandaSim(assets, task, nthread=1)),
     ):
         sim = make()
-        if name == "floating":  # the same start: over the entrance
-            pos = np.array([a.entrance[:3, 3] + [0, 0, 0.2] for a in assets])
-            quat = np.zeros((len(assets), 4))
-            for i, a in enumerate(assets):
-                mujoco.mju_mat2Quat(quat[i], a.entrance[:3, :3].ravel())
-            sim.set_pose(np.arange(len(assets)), pos, quat)
+        sim.set_pose(np.arange(len(assets)), pos, quat)
         t = time.perf_counter()
         for v in commands:
             sim.step(np.asarray(v, float))

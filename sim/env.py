@@ -45,7 +45,7 @@ from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.robots.registry import check_robot
 from sim.task import kernel as K
 from sim.task import rules as T
-from sim.task.config import READINGS, TaskConfig
+from sim.task.config import TaskConfig, reading_noise
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
 
@@ -207,15 +207,8 @@ class PegInHoleVecEnv:
         self._c_prev = np.zeros(n)
         self._d0 = np.ones(n)
         # a robot's readings after the 18 pose entries (TaskConfig.readings), with their noise
-        self.obs_dim = T.OBS_DIM + sum(READINGS[r] for r in self.cfg.readings)
-        noise: list[float] = []
-        for r in self.cfg.readings:
-            noise += (
-                [self.cfg.wrist_force_noise] * 3 + [self.cfg.wrist_torque_noise] * 3
-                if r == "wrist"
-                else [self.cfg.joint_position_noise] * 7 + [self.cfg.joint_velocity_noise] * 7
-            )
-        self._reading_noise = np.array(noise)
+        self._reading_noise = reading_noise(self.cfg)
+        self.obs_dim = T.OBS_DIM + len(self._reading_noise)
         for r in self.cfg.readings:  # an engine without them refuses here, not mid-run
             self.sim.readings(r)
         self._obs = np.zeros((n, self.obs_dim), dtype=np.float32)
@@ -531,9 +524,9 @@ class PegInHoleVecEnv:
         done = terminated | truncated
         if unstable.any():
             self.unstable_count += int(unstable.sum())
-        # an unstable env keeps its last observation, readings included
-        stable = np.flatnonzero(~unstable)
-        self._add_readings(stable, obs, stable)
+        if self.cfg.readings:  # an unstable env keeps its last observation, readings included
+            stable = np.flatnonzero(~unstable)
+            self._add_readings(stable, obs, stable)
         info = {
             "final_obs": obs.copy(),
             "success": success,

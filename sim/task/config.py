@@ -11,13 +11,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from assetgen.core.mujoco_config import PhysicsConfig
 
 __all__ = ["EVAL_CONFIG", "PhysicsConfig", "TaskConfig"]
 
 
-READINGS = {"wrist": 6, "joints": 14}
-"""The readings a robot adds to the observation (TaskConfig.readings) and their widths."""
+READINGS: dict[str, tuple[tuple[str, int], ...]] = {
+    "wrist": (("wrist_force_noise", 3), ("wrist_torque_noise", 3)),
+    "joints": (("joint_position_noise", 7), ("joint_velocity_noise", 7)),
+}
+"""The readings a robot adds to the observation (TaskConfig.readings): each a run of values,
+(the TaskConfig field of their noise's std, how many) in order."""
 
 
 @dataclass(frozen=True)
@@ -140,13 +146,9 @@ class TaskConfig:
             and self.dist_axis_weight >= 0.0,
             f"readings from {sorted(READINGS)}, each once": set(self.readings) <= set(READINGS)
             and len(set(self.readings)) == len(self.readings),
-            "reading noises >= 0": min(
-                self.wrist_force_noise,
-                self.wrist_torque_noise,
-                self.joint_position_noise,
-                self.joint_velocity_noise,
-            )
-            >= 0,
+            "reading noises >= 0": all(
+                getattr(self, field) >= 0 for run in READINGS.values() for field, _ in run
+            ),
             "module_replay is None or in (0, 1]": self.module_replay is None
             or 0.0 < self.module_replay <= 1.0,
             "spawn_z low <= high": self.spawn_z[0] <= self.spawn_z[1],
@@ -160,3 +162,10 @@ class TaskConfig:
 
 EVAL_CONFIG = TaskConfig(curriculum_steps=0)
 """The paper's evaluation protocol: noise on, full spawn ranges (no curriculum)."""
+
+
+def reading_noise(cfg: TaskConfig) -> np.ndarray:
+    """(k,) the noise std of each value cfg.readings adds to the observation, in order."""
+    return np.array(
+        [getattr(cfg, field) for r in cfg.readings for field, n in READINGS[r] for _ in range(n)]
+    )

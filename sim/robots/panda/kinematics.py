@@ -130,16 +130,13 @@ def reach(
     the joints at or near a limit (what stops the arm)."""
     lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
     best: tuple[float, np.ndarray] | None = None
-    closest: tuple[float, np.ndarray] | None = None
+    closest: tuple[float, float, np.ndarray] | None = None  # (error, -room, joints)
     for k in range(tries):
         q0 = HOME if k == 0 else np.clip(HOME + rng.normal(0.0, 0.3 * k**0.5, 7), lo, hi)
         q, err, _ = place_peg(m, d, pos, quat, q0)
         room = float(np.min(np.minimum(q - lo, hi - q)))
-        if closest is None or (err, -room) < (
-            closest[0],
-            -float(np.min(np.minimum(closest[1] - lo, hi - closest[1]))),
-        ):
-            closest = (err, q)
+        if closest is None or (err, -room) < closest[:2]:
+            closest = (err, -room, q)
         if err < tol and room >= margin:
             away = float(np.linalg.norm(q - HOME))
             if best is None or away < best[0]:
@@ -150,7 +147,7 @@ def reach(
         d.qpos[:7] = best[1]
         return best[1], []
     assert closest is not None
-    q = closest[1]
+    q = closest[2]
     d.qpos[:7] = q
     near = np.flatnonzero((q - lo < margin) | (hi - q < margin))
     return None, [JOINTS[i] for i in near]

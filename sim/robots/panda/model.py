@@ -93,6 +93,11 @@ class ArmSettings:
     nullspace_gain: float = 2.0
     """Rate (1/s) at which the joints drift to HOME within the task's nullspace."""
 
+    @property
+    def impedance(self) -> bool:
+        """Whether the twist actuators drive the arm (else the joints' position ramps)."""
+        return self.controller == "impedance"
+
     def validate(self) -> ArmSettings:
         bad = [
             name
@@ -183,7 +188,7 @@ def panda_spec(
         # published limit (the impedance's site actuators act on all joints at once)
         j.actfrclimited = True
         j.actfrcrange = [-TORQUE_LIMITS[i], TORQUE_LIMITS[i]]
-        if settings.controller == "impedance":
+        if settings.impedance:
             j.stiffness = [settings.posture_stiffness, 0.0, 0.0]
             j.springref = float(HOME[i])
             continue

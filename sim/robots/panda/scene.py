@@ -154,7 +154,7 @@ def build_arm_spec(
     peg.gravcomp = 1.0
     add_peg(spec, peg, asset, physics)
     settings = settings or ArmSettings()
-    if settings.controller == "impedance":
+    if settings.impedance:
         add_twist_actuators(spec, settings)
     wrist = peg.add_site()
     wrist.name = WRIST_SITE

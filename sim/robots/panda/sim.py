@@ -153,7 +153,7 @@ class PandaSim(EngineSim):
             )
         d.qpos[:7] = q
         d.qvel[:] = 0.0
-        d.ctrl[:] = q if self.settings.controller == "ik" else 0.0
+        d.ctrl[:] = 0.0 if self.settings.impedance else q
         d.time = self.full[e, 0]
         mujoco.mj_forward(m, d)
         mujoco.mj_getState(m, d, self.full[e], STATE_SPEC)
@@ -161,10 +161,11 @@ class PandaSim(EngineSim):
 
     def set_pose(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Put the pegs of envs idx at rest at pos (k, 3), quat (k, 4) through the arm's
-        inverse kinematics (UnreachableError if a pose is out of reach)."""
-        quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
-        for j, e in enumerate(np.arange(self.num_envs)[idx]):
-            self._place(int(e), pos[j], quat[j])
+        inverse kinematics (UnreachableError naming the first pose out of reach)."""
+        done = self.place(idx, pos, quat)
+        if not done.all():
+            e = int(np.arange(self.num_envs)[idx][np.flatnonzero(~done)[0]])
+            raise UnreachableError(self.unreached[e])
 
     def place(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
         """set_pose for the poses the arm reaches; (k,) bool: which it did (the others keep
@@ -216,7 +217,7 @@ class PandaSim(EngineSim):
         envs whose physics broke down (non-finite state)."""
         del live
         n = self.num_envs
-        if self.settings.controller == "impedance":
+        if self.settings.impedance:
             self._ctrl[:] = np.asarray(velocity, float)[:, None, :]
             return self._run()
         jac = np.empty((n, 6, 7))
@@ -255,11 +256,9 @@ class PandaSim(EngineSim):
     def readings(self, name: str) -> np.ndarray:
         """The wrist's force and torque (num_envs, 6), or the joints' positions and
         velocities (num_envs, 14)."""
-        if name == "wrist":
-            return self.wrist
-        if name == "joints":
-            return self.full[:, 1:15]  # qpos (7), then qvel (7): FULLPHYSICS after time
-        return super().readings(name)
+        # the joints: qpos (7), then qvel (7), FULLPHYSICS's entries after the time
+        found = {"wrist": self.wrist, "joints": self.full[:, 1:15]}.get(name)
+        return super().readings(name) if found is None else found
 
     def protocol(self) -> dict:
         """The arm's settings and mount, for an evaluation file."""
