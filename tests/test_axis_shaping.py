@@ -12,7 +12,7 @@ import pytest
 from sim.task import rules as T
 from sim.task.config import TaskConfig
 from tests.test_cli import run as cli
-from tests.test_sim_common import make_env, quiet, sim_dataset
+from tests.test_sim_common import debug_train_args, make_env, quiet, sim_dataset
 
 
 def _slide_reward(weight: float) -> float:
@@ -79,8 +79,7 @@ def test_the_env_on_the_device_refuses_it() -> None:
 
 
 def test_train_takes_it_and_refuses_bad_weights(tmp_path) -> None:
-    base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
-            "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
+    base = debug_train_args()
     p = cli(*base, "--axis-shaping", "2", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
     assert '"axis_shaping": 2.0' in (tmp_path / "run" / "config.json").read_text()

@@ -11,7 +11,7 @@ import pytest
 from sim.task.config import TaskConfig
 from sim.task.curriculum import SuccessCurriculum
 from tests.test_cli import run as cli
-from tests.test_sim_common import make_env, quiet, sim_dataset
+from tests.test_sim_common import debug_train_args, make_env, quiet, sim_dataset
 
 
 def _outcomes(c: SuccessCurriculum, successes: list[bool]) -> None:
@@ -99,8 +99,7 @@ def test_the_env_on_the_device_refuses_it() -> None:
 
 
 def test_train_logs_the_level_and_refuses_bad_rates(tmp_path) -> None:
-    base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
-            "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
+    base = debug_train_args()
     p = cli(*base, "--curriculum-success", "0.5", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
     rows = list(csv.DictReader(open(tmp_path / "run" / "metrics.csv")))

@@ -11,7 +11,7 @@ import pytest
 from sim.task.config import TaskConfig
 from sim.task.module_replay import ModuleReplay
 from tests.test_cli import run as cli
-from tests.test_sim_common import make_env, quiet, sim_dataset
+from tests.test_sim_common import debug_train_args, make_env, quiet, sim_dataset
 
 
 def test_scores_follow_the_episodes_and_picks_follow_the_scores() -> None:
@@ -83,8 +83,7 @@ def test_the_env_on_the_device_refuses_it() -> None:
 
 
 def test_train_takes_it_refuses_bad_shares_and_keeps_it_on_resume(tmp_path) -> None:
-    base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
-            "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
+    base = debug_train_args()
     p = cli(*base, "--module-replay", "0.5", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
     p = cli(*base, "--module-replay", "1.5", "--out", str(tmp_path / "bad"))

@@ -11,7 +11,7 @@ import pytest
 
 from sim.task.config import TaskConfig
 from tests.test_cli import run as cli
-from tests.test_sim_common import make_env, quiet, sim_dataset
+from tests.test_sim_common import debug_train_args, make_env, quiet, sim_dataset
 
 
 def _spawn_offsets(cfg: TaskConfig, resets: int = 20) -> np.ndarray:
@@ -63,8 +63,7 @@ def test_the_env_on_the_device_refuses_it() -> None:
 
 
 def test_train_takes_it_and_refuses_bad_shares(tmp_path) -> None:
-    base = ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
-            "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
+    base = debug_train_args()
     p = cli(*base, "--near-starts", "0.25", "--out", str(tmp_path / "run"))
     assert p.returncode == 0, p.stderr
     config = (tmp_path / "run" / "config.json").read_text()

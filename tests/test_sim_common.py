@@ -49,6 +49,13 @@ def quiet(**kw) -> TaskConfig:
     return replace(TaskConfig(noise=False, curriculum_steps=0), **kw)
 
 
+def debug_train_args() -> list[str]:
+    """`assetgen train` on the sim dataset, as small as a run gets (PPO's debug preset, 2 envs,
+    256 steps, one thread); a test adds its flags and --out."""
+    return ["train", "--algo", "ppo", "--preset", "debug", "--dataset", str(sim_dataset()),
+            "--envs", "2", "--steps", "256", "--no-progress", "--threads", "1"]  # fmt: skip
+
+
 def make_env(n_modules: int = 1, config: TaskConfig | None = None, **kw) -> PegInHoleVecEnv:
     """Envs over the first n_modules modules (up to 4; more repeat them), one thread."""
     mods = [modules()[i % len(modules())] for i in range(n_modules)]
