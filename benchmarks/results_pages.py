@@ -165,32 +165,42 @@ def referee_table() -> str:
 
 ROBOT_AGENTS = ("scripted", "scripted-direct", "sac-teacher-free", "sac-direct-bc",
                 "sac-fast-bc", "dreamer-direct-bc")  # fmt: skip
-"""The robot page's rows: docs/results/robot/AGENT_{none,panda}_test64.json, the floating peg
-and the Panda on the same 64 test modules (rows whose files are missing are left out)."""
+"""The robot page's rows, for each registered robot (sim/robots/registry.py) ROBOT:
+docs/results/robot/AGENT_{none,ROBOT}_test64.json, the floating peg and the robot on the same
+64 test modules (rows whose files are missing are left out)."""
+
+
+def robot_files(agent: str, robot: str) -> tuple[Path, Path]:
+    """The floating peg's and `robot`'s evaluation files of `agent` on the robot page."""
+    return tuple(RESULTS / "robot" / f"{agent}_{r}_test64.json" for r in ("none", robot))
 
 
 def robot_table() -> str:
-    """The floating peg against the Panda (docs/results/robot/table.md), from the evaluation
-    files."""
+    """The floating peg against each robot (docs/results/robot/table.md), from the
+    evaluation files."""
     import json
 
+    from sim.robots.registry import ROBOTS
+
     rows = [
-        "| agent | modules × attempts | floating | Panda | gap | median time (floating / "
-        "Panda) | Panda truncated / failed |\n|---|---|---|---|---|---|---|"
+        "| agent | robot | modules × attempts | floating | robot | gap | median time (floating "
+        "/ robot) | robot truncated / failed |\n|---|---|---|---|---|---|---|---|"
     ]
-    for agent in ROBOT_AGENTS:
-        files = [RESULTS / "robot" / f"{agent}_{r}_test64.json" for r in ("none", "panda")]
-        if not all(f.exists() for f in files):
-            continue
-        free, arm = (json.loads(f.read_text()) for f in files)
-        assert free.get("robot") is None and arm.get("robot") == "panda", agent
-        rows.append(
-            f"| {agent} | {arm['modules']} × {arm['attempts']} | "
-            f"{100 * free['success_rate']:.2f} % | {100 * arm['success_rate']:.2f} % | "
-            f"{100 * (arm['success_rate'] - free['success_rate']):+.2f} | "
-            f"{free['median_time_to_success_s']:.2f} / {arm['median_time_to_success_s']:.2f} s | "
-            f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"
-        )
+    for robot in ROBOTS.values():
+        for agent in ROBOT_AGENTS:
+            files = robot_files(agent, robot.name)
+            if not all(f.exists() for f in files):
+                continue
+            free, arm = (json.loads(f.read_text()) for f in files)
+            assert free.get("robot") is None and arm.get("robot") == robot.name, agent
+            rows.append(
+                f"| {agent} | {robot.label} | {arm['modules']} × {arm['attempts']} | "
+                f"{100 * free['success_rate']:.2f} % | {100 * arm['success_rate']:.2f} % | "
+                f"{100 * (arm['success_rate'] - free['success_rate']):+.2f} | "
+                f"{free['median_time_to_success_s']:.2f} / "
+                f"{arm['median_time_to_success_s']:.2f} s | "
+                f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"
+            )
     return "\n".join(rows) + "\n"
 
 

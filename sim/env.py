@@ -132,7 +132,7 @@ class PegInHoleVecEnv:
                 f"num_envs = {self.num_envs}): give num_envs >= the number of modules"
             )
         options = EngineOptions(nthread, shard_size, physx, warp_device, robot_settings)
-        sim_class = spec.load("sim") if holder is None else holder.load_sim()
+        sim_class = spec.load("sim") if holder is None else holder.load("sim")
         self.sim = sim_class.create(assets, self.cfg, spare, options)
         self.control_dt = self.cfg.control_dt
         self.stateful = self.sim.saves_state

@@ -75,18 +75,18 @@ def test_assembly_page_is_generated_from_its_files() -> None:
 
 
 def test_robot_page_is_generated_from_its_files() -> None:
-    from benchmarks.results_pages import ROBOT_AGENTS, robot_table
+    from benchmarks.results_pages import ROBOT_AGENTS, robot_files, robot_table
 
     table = RESULTS / "robot" / "table.md"
     assert table.exists() and table.read_text() == robot_table(), (
         f"{table} is stale: run python -m benchmarks.results_pages"
     )
-    files = [RESULTS / "robot" / f"{a}_{r}_test64.json" for a in ROBOT_AGENTS
-             for r in ("none", "panda")]  # fmt: skip
-    assert any(f.exists() for f in files), "the robot page has no evaluation file"
-    for f in files:  # the current physics; the arm's files name its controller
-        if f.exists():
-            doc = json.loads(f.read_text())
-            assert doc.get("physics_version") == PHYSICS_VERSION and doc["dataset"] == "test", f
-            assert (doc.get("robot") == "panda") == ("_panda_" in f.name), f
-            assert ("arm" in doc) == ("_panda_" in f.name), f
+    pairs = [robot_files(a, "panda") for a in ROBOT_AGENTS]
+    assert any(f.exists() for pair in pairs for f in pair), "the robot page has no file"
+    for free, arm in pairs:  # the current physics; the arm's files name its settings
+        for f, robot in ((free, None), (arm, "panda")):
+            if f.exists():
+                doc = json.loads(f.read_text())
+                assert doc.get("physics_version") == PHYSICS_VERSION, f
+                assert doc["dataset"] == "test" and doc.get("robot") == robot, f
+                assert ("arm" in doc) == (robot is not None), f

@@ -28,13 +28,19 @@ class Robot:
     sim: str
     """The EngineSim class ("module:attribute") that PegInHoleVecEnv steps in place of the
     engine's own."""
+    scene: str
+    """(module asset, PhysicsConfig) -> mujoco.MjSpec: the robot holding the module's peg,
+    with its visual meshes (`assetgen scene`)."""
     engines: tuple[str, ...]
     """The engines (sim/engines/registry.py) that carry it."""
     extra: str
     """The pip extra that installs its model."""
 
-    def load_sim(self) -> Any:
-        return load_reference(self.sim)
+    def load(self, field: str) -> Any:
+        """The object that `field` ("sim" or "scene") names."""
+        if field not in ("sim", "scene"):
+            raise ValueError(f"{field!r} is not one of a robot's fields ('sim', 'scene')")
+        return load_reference(getattr(self, field))
 
 
 ROBOTS: dict[str, Robot] = {
@@ -44,6 +50,7 @@ ROBOTS: dict[str, Robot] = {
             name="panda",
             label="Franka Emika Panda",
             sim="sim.robots.panda.sim:PandaSim",
+            scene="sim.robots.panda.scene:build_arm_spec",
             engines=("mujoco",),
             extra="robot",
         ),
