@@ -113,8 +113,8 @@ def expert(dataset: str, modules: int, controller: str = "impedance", seed: int 
 
 
 def reach(dataset: str, poses: int, modules: int | None, seed: int) -> dict:
-    from sim.robots.panda.kinematics import reach as reach_pose
-    from sim.robots.panda.scene import Mount, build_arm_spec
+    from sim.robots.panda.scene import refusal
+    from sim.robots.panda.sim import PandaSim
 
     assets = load_dataset(dataset_root(dataset))
     if modules:
@@ -127,22 +127,19 @@ def reach(dataset: str, poses: int, modules: int | None, seed: int) -> dict:
     unreached_modules: Counter[str] = Counter()
     t0 = time.perf_counter()
     for a in assets:
-        try:
-            m = build_arm_spec(a, physics_for(a.clearance), Mount()).compile()
-        except ValueError as err:
-            refused[a.id] = str(err)
+        why = refusal(a)
+        if why is not None:
+            refused[a.id] = why
             continue
-        d = mujoco.MjData(m)
+        sim = PandaSim([a], _task(a.clearance), nthread=1, seed=seed)
         eq = np.zeros(4)
         mujoco.mju_mat2Quat(eq, a.entrance[:3, :3].ravel())
-        n = poses
         pos, quat = T.sample_spawn(
-            rng, np.repeat(a.entrance[None, :3, 3], n, 0), np.repeat(eq[None], n, 0),
-            np.repeat(a.peg.vertices[None], n, 0), 1.0, cfg,
+            rng, np.repeat(a.entrance[None, :3, 3], poses, 0), np.repeat(eq[None], poses, 0),
+            np.repeat(a.peg.vertices[None], poses, 0), 1.0, cfg,
         )  # fmt: skip
-        for k in range(n):
-            q, limits = reach_pose(m, d, pos[k], quat[k], rng)
-            ok = q is not None
+        for k in range(poses):
+            ok = bool(sim.place(np.array([0]), pos[k : k + 1], quat[k : k + 1])[0])
             total += 1
             reached += ok
             # the spawn's tilt from the entrance frame
@@ -154,8 +151,10 @@ def reach(dataset: str, poses: int, modules: int | None, seed: int) -> dict:
                 tilted_n += 1
                 tilted_ok += ok
             if not ok:
-                stops.update(limits or ["reach"])
+                why = sim.unreached[0].rsplit("stopped by ", 1)[-1]
+                stops.update(w.strip() for w in why.split(","))
                 unreached_modules[a.id] += 1
+        sim.close()
     return {
         "dataset": str(dataset),
         "modules": len(assets),

@@ -17,6 +17,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
 
@@ -166,8 +168,9 @@ def referee_table() -> str:
 ROBOT_AGENTS = ("scripted", "scripted-direct", "sac-teacher-free", "sac-direct-bc",
                 "sac-fast-bc", "dreamer-direct-bc")  # fmt: skip
 """The robot page's rows, for each registered robot (sim/robots/registry.py) ROBOT:
-docs/results/robot/AGENT_{none,ROBOT}_test64.json, the floating peg and the robot on the same
-64 test modules (rows whose files are missing are left out)."""
+docs/results/robot/AGENT_{none,ROBOT}_test64.json, the floating peg and the robot on the first
+64 test modules; both success rates are over the modules the robot holds (it refuses some by
+name). Rows whose files are missing are left out."""
 
 
 def robot_files(agent: str, robot: str) -> tuple[Path, Path]:
@@ -193,10 +196,14 @@ def robot_table() -> str:
                 continue
             free, arm = (json.loads(f.read_text()) for f in files)
             assert free.get("robot") is None and arm.get("robot") == robot.name, agent
+            # the floating peg on the modules the robot holds (it refuses some by name)
+            held = list(arm["per_module"])
+            floating = float(np.mean([free["per_module"][m] for m in held]))
             rows.append(
-                f"| {agent} | {robot.label} | {arm['modules']} × {arm['attempts']} | "
-                f"{100 * free['success_rate']:.2f} % | {100 * arm['success_rate']:.2f} % | "
-                f"{100 * (arm['success_rate'] - free['success_rate']):+.2f} | "
+                f"| {agent} | {robot.label} | {len(held)} of {free['modules']} × "
+                f"{arm['attempts']} | {100 * floating:.2f} % | "
+                f"{100 * arm['success_rate']:.2f} % | "
+                f"{100 * (arm['success_rate'] - floating):+.2f} | "
                 f"{free['median_time_to_success_s']:.2f} / "
                 f"{arm['median_time_to_success_s']:.2f} s | "
                 f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"

@@ -348,6 +348,17 @@ def eval_main(args: argparse.Namespace, make_env: MakeEnv | None = None) -> int:
         ("agent", f"{name}, {res['policy']} actions"),
         ("dataset", where),
         ("episodes", res["episodes"]),
+        *(
+            [
+                (
+                    "modules refused",
+                    f"{len(res['refused_modules'])} by the {res['robot']}: "
+                    + ", ".join(res["refused_modules"]),
+                )
+            ]
+            if res.get("refused_modules")
+            else []
+        ),
         ("success rate", f"{100 * res['success_rate']:.2f} %"),
         ("time to success p10/p50/p90", f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f} s"),
         ("failure rate", f"{100 * res['failure_rate']:.2f} %"),

@@ -101,6 +101,15 @@ class PegInHoleVecEnv:
         modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
         if not modules:
             raise ValueError("no modules given: pass a dataset folder or a non-empty list")
+        self.refused: dict[str, str] = {}
+        """Module id -> why the robot cannot hold its peg: modules left out (a robot only)."""
+        if holder is not None:
+            refuses = holder.load("refuses")
+            self.refused = {m.id: why for m in modules if (why := refuses(m)) is not None}
+            if self.refused:
+                modules = [m for m in modules if m.id not in self.refused]
+                if not modules:
+                    raise ValueError(next(iter(self.refused.values())))
         if self.cfg.physics is None:
             if not isinstance(dataset, list):
                 check_physics(dataset)
@@ -780,7 +789,7 @@ def make_eval_env(
         )
     env = PegInHoleVecEnv(
         modules,
-        len(modules),
+        None,  # one env per module the robot (if any) holds
         config,
         assignment_seed=seed,
         engine=engine,
@@ -802,6 +811,8 @@ def make_eval_env(
     }
     if robot is not None:  # the floating peg's files keep their fields as they were
         env.protocol["robot"] = env.robot
+        if env.refused:
+            env.protocol["refused_modules"] = sorted(env.refused)
     if readings:
         env.protocol["readings"] = list(readings)
     if ids is not None:

@@ -31,15 +31,21 @@ class Robot:
     scene: str
     """(module asset, PhysicsConfig) -> mujoco.MjSpec: the robot holding the module's peg,
     with its visual meshes (`assetgen scene`)."""
+    refuses: str
+    """(module asset) -> str | None: why the robot cannot hold that module's peg (a sentence
+    naming the module), or None where it can. Envs built from a dataset leave refused
+    modules out and name them (PegInHoleVecEnv.refused)."""
     engines: tuple[str, ...]
     """The engines (sim/engines/registry.py) that carry it."""
     extra: str
     """The pip extra that installs its model."""
 
     def load(self, field: str) -> Any:
-        """The object that `field` ("sim" or "scene") names."""
-        if field not in ("sim", "scene"):
-            raise ValueError(f"{field!r} is not one of a robot's fields ('sim', 'scene')")
+        """The object that `field` ("sim", "scene" or "refuses") names."""
+        if field not in ("sim", "scene", "refuses"):
+            raise ValueError(
+                f"{field!r} is not one of a robot's fields ('sim', 'scene', 'refuses')"
+            )
         return load_reference(getattr(self, field))
 
 
@@ -51,6 +57,7 @@ ROBOTS: dict[str, Robot] = {
             label="Franka Emika Panda",
             sim="sim.robots.panda.sim:PandaSim",
             scene="sim.robots.panda.scene:build_arm_spec",
+            refuses="sim.robots.panda.scene:refusal",
             engines=("mujoco",),
             extra="robot",
         ),

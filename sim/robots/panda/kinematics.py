@@ -111,6 +111,74 @@ def place_peg(
     return q, err, at_limit
 
 
+def _peg_pose(m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    """The peg frame's position (3,) and quaternion (4,) at d's joints (module frame)."""
+    mujoco.mj_kinematics(m, d)
+    site = m.site(PEG_SITE).id
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, d.site_xmat[site])
+    return d.site_xpos[site].copy(), quat
+
+
+def carry(
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    q: np.ndarray,
+    pos: np.ndarray,
+    quat: np.ndarray,
+    *,
+    step_lin: float = 0.01,
+    step_rot: float = 0.05,
+    tol: float = 1e-4,
+    margin: float = LIMIT_MARGIN,
+) -> tuple[np.ndarray | None, list[str]]:
+    """Carry the peg from where joints q (7,) hold it to pos (3,), quat (4,), along the straight
+    line and the shortest turn, in steps of at most `step_lin` m and `step_rot` rad, each a
+    few damped Gauss-Newton iterations from the last joints: the joints move continuously, so
+    the result is a posture the arm reaches from q along that path, not merely one that
+    holds the pose. Returns the joints at the end (d's qpos is left at them), or None where
+    the path ends off the pose (error over `tol`), or where a joint comes within margin / 2
+    of its limit on the way or ends within `margin` of it; then also the joints that did."""
+    lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
+    d.qpos[:7] = q
+    p0, q0 = _peg_pose(m, d)
+    turn = _quat_error(quat, q0)
+    n = max(1, int(np.ceil(max(np.linalg.norm(pos - p0) / step_lin,
+                               np.linalg.norm(turn) / step_rot))))  # fmt: skip
+    q = np.array(q, dtype=float)
+    near = np.zeros(7, dtype=bool)
+    rot = np.zeros(4)
+    for k in range(1, n + 1):
+        f = k / n
+        mujoco.mju_axisAngle2Quat(rot, turn / max(np.linalg.norm(turn), 1e-12),
+                                  f * np.linalg.norm(turn))  # fmt: skip
+        target_q = np.zeros(4)
+        mujoco.mju_mulQuat(target_q, rot, q0)
+        q, err, _ = place_peg(m, d, p0 + f * (pos - p0), target_q, q,
+                              iterations=50 if k == n else 4, tol=tol)  # fmt: skip
+        near |= (q - lo < 0.5 * margin) | (hi - q < 0.5 * margin)
+        if k % 4 == 0 or k == n:
+            touching = _touches(m, d)
+            if touching:
+                return None, [f"the {touching} touching the module"]
+    near |= (q - lo < margin) | (hi - q < margin)
+    if err < tol and not near.any():
+        return q, []
+    return None, [JOINTS[i] for i in np.flatnonzero(near)] or ["its reach"]
+
+
+def _touches(m: mujoco.MjModel, d: mujoco.MjData) -> str | None:
+    """The name of a body of the arm or the peg that touches the module at d's joints, or
+    None (the module's pieces are the world body's)."""
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_collision(m, d)
+    for c in d.contact[: d.ncon]:
+        if c.dist < 0.0:
+            body = max(m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2])
+            return m.body(body).name
+    return None
+
+
 def reach(
     m: mujoco.MjModel,
     d: mujoco.MjData,

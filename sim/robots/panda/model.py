@@ -43,6 +43,15 @@ FINGER_TIP = 0.26
 """Distance of the fingertips from the flange along its z, m (pads from 0.20 to 0.26)."""
 FINGER_BASE = 0.1654
 """The fingers' bodies sit this far along the flange's z, m."""
+FINGER_DIRECTION = np.pi / 4
+"""The fingers close along this direction in the flange's xy-plane, rad (the hand is turned
+45 degrees on the flange)."""
+FINGER_OUT = 0.0145
+"""The fingertips reach this far beyond half the fingers' gap, across it, m (their lowest
+collision capsules: 7.4 mm to the capsule's axis plus its 7 mm radius)."""
+FINGER_PAD = 0.0161
+"""The fingertips reach this far to either side of the gap's line, along the pads, m (the
+capsule's half-length 9.1 mm plus its radius)."""
 MAX_OPENING = 0.08
 """The widest peg the fingers close on, m (two 40 mm strokes)."""
 HOME = np.array([0.0, -0.233, 0.0, -2.459, 0.0, 0.656, 0.0])

@@ -26,6 +26,9 @@ from assetgen.core.mujoco_config import apply_to_spec
 from sim.assets.loading import ModuleAsset
 from sim.engines.mujoco.scene import PEG_SITE, REF_SITE, add_peg, add_pieces
 from sim.robots.panda.model import (
+    FINGER_DIRECTION,
+    FINGER_OUT,
+    FINGER_PAD,
     FINGER_TIP,
     FLANGE,
     MAX_OPENING,
@@ -36,9 +39,9 @@ from sim.task.config import PhysicsConfig
 
 WRIST_SITE = "wrist_site"
 GRASP_YAW = -0.765
-"""The peg's turn about the flange's z in the fingers, rad: upright over the hole, the arm then
-has joint 7 at the middle of its range (HOME), so any turn of the peg about its axis up to
-166 degrees either way is in the wrist's reach."""
+"""The peg's turn about the flange's z in the fingers for a hole without yaw, rad: upright
+over the hole, the arm then has joint 7 at the middle of its range (HOME). `grasp` turns it by
+each hole's yaw, so that every seated peg is at joint 7's middle."""
 SENSORS = ("peg_pos", "peg_quat", "peg_linvel", "peg_angvel", "wrist_force", "wrist_torque")
 SENSOR_DIMS = (3, 4, 3, 3, 3, 3)
 
@@ -51,27 +54,11 @@ class Mount:
     """Base position, m: behind the hole along -x, below the plate's surface (a pedestal
     under the module), so the flange works at mid reach over the whole spawn range."""
     max_grip: float = 0.04
-    """The fingers hold the top `min(max_grip, (h - depth) / 2)` of a peg of height h whose
-    hole is `depth` deep, m: never deeper than the part that stays out of the hole."""
+    """The fingers hold at most this much of the peg's top, m (see scene.grasp)."""
     min_grip: float = 0.0025
-    """A peg that sticks out of its seated hole by less than twice this is refused: the
-    fingers would reach the plate (the train and test splits' pegs stick out 5.9 mm or
-    more)."""
-
-
-def grip_depth(asset: ModuleAsset, mount: Mount) -> float:
-    """How much of the peg's top the fingers cover, m (ValueError: too little of it stays
-    out of its hole for the fingers)."""
-    h = float(asset.peg.vertices[:, 2].max())
-    depth = float(-asset.bottom[2, 3])
-    g = min(mount.max_grip, 0.5 * (h - depth))
-    if g < mount.min_grip:
-        raise ValueError(
-            f"module {asset.id}: its peg ({h * 1e3:.1f} mm) stands {(h - depth) * 1e3:.1f} mm "
-            f"out of its {depth * 1e3:.1f} mm hole when seated; the Panda's fingers need "
-            f"{2 * mount.min_grip * 1e3:.0f} mm"
-        )
-    return g
+    """The least grip, m: a module whose peg leaves less for the fingers is refused."""
+    finger_clearance: float = 0.001
+    """The fingertips stay this far above the mounting surface when the peg is seated, m."""
 
 
 def grasp_width(asset: ModuleAsset) -> float:
@@ -87,14 +74,81 @@ def grasp_width(asset: ModuleAsset) -> float:
     return width
 
 
+def _grip_bound(asset: ModuleAsset, width: float, yaw: float, clearance: float) -> float:
+    """The deepest grip (m) at which the fingertips of fingers `width` apart, with the peg
+    turned `yaw` in them, stay `clearance` above the mounting surface once the peg is seated
+    in its (tilted) hole."""
+    up = asset.bottom[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the surface's normal, peg frame
+    # the fingertips' extreme points in the flange's xy-plane, then in the peg frame: the
+    # peg frame is the flange's turned by `yaw` about z and half a turn about x
+    u = np.array([math.cos(FINGER_DIRECTION), math.sin(FINGER_DIRECTION)])
+    v = np.array([-u[1], u[0]])
+    c, s = math.cos(yaw), math.sin(yaw)
+    lowest = np.inf
+    for a in (-1.0, 1.0):
+        for b in (-1.0, 1.0):
+            x, y = a * (0.5 * width + FINGER_OUT) * u + b * FINGER_PAD * v
+            px, py = c * x + s * y, s * x - c * y  # (Rz(yaw) Rx(pi))^T (x, y, 0)
+            lowest = min(lowest, px * up[0] + py * up[1])
+    h = float(asset.peg.vertices[:, 2].max())
+    return h - (clearance - asset.bottom[2, 3] - lowest) / up[2]
+
+
+def grasp(asset: ModuleAsset, mount: Mount) -> tuple[float, float]:
+    """The peg's turn about the flange's z in the fingers (rad) and how much of its top they
+    cover (m).
+
+    The turn: GRASP_YAW less the yaw of the module's seated peg (its hole's yaw, up to 180
+    degrees either way), so that the arm holds the seated peg with joint 7 at the middle of
+    its range and a turn of the peg about its axis by up to 166 degrees either way from its
+    hole's orientation is in the wrist's reach. The grip: `mount.max_grip`, at most half of
+    what stays out of the hole, and no deeper than keeps the fingertips `finger_clearance`
+    above the surface of a seated peg in a tilted hole; where the tilt asks for less than
+    that, the turn moves (up to 90 degrees, the least that does) until the fingers straddle
+    the tilt's axis. ValueError (naming the module) where no turn gives `mount.min_grip`."""
+    r = asset.bottom[:3, :3]
+    centre = GRASP_YAW - math.atan2(r[1, 0], r[0, 0])
+    h = float(asset.peg.vertices[:, 2].max())
+    want = min(mount.max_grip, 0.5 * (h + float(asset.bottom[2, 3])))
+    width = min(grasp_width(asset) + 0.002, MAX_OPENING)
+    best = (-np.inf, centre)
+    for off in sorted(np.radians(np.arange(-90, 91, 5)), key=abs):
+        yaw = centre + off
+        g = min(want, _grip_bound(asset, width, yaw, mount.finger_clearance))
+        if g >= want - 1e-9:
+            best = (g, yaw)
+            break
+        best = max(best, (g, yaw))
+    grip, yaw = best
+    if grip < mount.min_grip:
+        raise ValueError(
+            f"module {asset.id}: its peg ({h * 1e3:.1f} mm) stands "
+            f"{(h + asset.bottom[2, 3]) * 1e3:.1f} mm out of its hole when seated, tilted by "
+            f"{math.degrees(math.acos(min(1.0, r[2, 2]))):.1f} deg; the Panda's fingers need "
+            f"{mount.min_grip * 1e3:.1f} mm of it clear of the plate"
+        )
+    return math.remainder(yaw, 2.0 * math.pi), grip
+
+
+def refusal(asset: ModuleAsset, mount: Mount | None = None) -> str | None:
+    """Why the Panda cannot hold this module's peg (its width or its grasp), or None."""
+    try:
+        grasp_width(asset)
+        grasp(asset, mount or Mount())
+    except ValueError as err:
+        return str(err)
+    return None
+
+
 def peg_in_flange(asset: ModuleAsset, mount: Mount) -> tuple[np.ndarray, np.ndarray]:
     """The peg frame in the flange frame: position (3,), quaternion (4,). The peg's z points
-    away from the hand (the flange's -z) and its top lies `grip_depth` inside the fingertips."""
+    away from the hand (the flange's -z), turned and gripped as `grasp` says: its top lies
+    the grip inside the fingertips."""
     h = float(asset.peg.vertices[:, 2].max())
-    pos = np.array([0.0, 0.0, FINGER_TIP - grip_depth(asset, mount) + h])
-    # half a turn about the flange's x, after GRASP_YAW about its z
-    c, s = math.cos(0.5 * GRASP_YAW), math.sin(0.5 * GRASP_YAW)
-    return pos, np.array([0.0, c, s, 0.0])
+    yaw, grip = grasp(asset, mount)
+    pos = np.array([0.0, 0.0, FINGER_TIP - grip + h])
+    # half a turn about the flange's x, after the yaw about its z
+    return pos, np.array([0.0, math.cos(0.5 * yaw), math.sin(0.5 * yaw), 0.0])
 
 
 def add_twist_actuators(spec: mujoco.MjSpec, settings: ArmSettings) -> None:

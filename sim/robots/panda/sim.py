@@ -1,16 +1,21 @@
 """Panda arms holding the pegs: the engine interface (sim.engines.base.EngineSim) over
 MuJoCo, the peg moved through the arm's joints.
 
-The controller, at the policy rate: the commanded twist of the peg's bottom-face centre
-becomes joint velocities by damped least squares with a nullspace drift to the home posture
-(kinematics.joint_velocity), and those become per-physics-step position targets of the
-joints' actuators, a ramp from the measured joints. MuJoCo then steps all substeps in C
-(`mujoco.rollout`, one model per env, no Python in between); the actuators' force limits are
-the Panda's published torque limits, so a peg pressed into the plate meets a bounded force.
-Why this design and not an impedance law inside MuJoCo: MuJoCo has no actuator whose force
-follows a Cartesian twist through the Jacobian of the moment (it would need Python, or a
-plugin, in every substep); a joint-space ramp does, and its tracking is measured in
-docs/robot.md.
+Two controllers turn the commanded twist of the peg's bottom-face centre into the arm's motion
+(ArmSettings.controller; docs/robot.md has the measurement that chose the first):
+- impedance (the default): six actuators on the peg's site apply kv (commanded - measured
+  twist), which MuJoCo maps to joint torques through the site's Jacobian at every physics
+  step;
+- ik: damped least squares at the policy rate (kinematics.joint_velocity) into per-physics-step
+  position targets of the joints' actuators, a ramp from the measured joints.
+Either way MuJoCo steps all substeps in C (`mujoco.rollout`, one model per env, no Python in
+between), and the joints' torques are clamped at the Panda's published limits, so a peg
+pressed into the plate meets a bounded force.
+
+A peg is placed (`place`, the env's spawns) in the posture the arm reaches by carrying it there
+from the module's aligned pose over the hole (kinematics.carry): a pose is refused where that
+path passes a joint limit or an arm link through the module, so the way back to the hole is
+in the arm's reach from every accepted spawn.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ from sim.assets.loading import ModuleAsset
 from sim.engines.base import EngineOptions, EngineSim
 from sim.engines.mujoco.batch import check_capacity
 from sim.engines.mujoco.scene import contact_solref, geom_contacts, restitution_to_dampratio
-from sim.robots.panda.kinematics import joint_velocity, peg_jacobian, reach
+from sim.robots.panda.kinematics import carry, joint_velocity, peg_jacobian, reach
 from sim.robots.panda.model import ArmSettings
 from sim.robots.panda.scene import SENSOR_DIMS, SENSORS, Mount, build_arm_spec
 from sim.task.config import TaskConfig
@@ -95,6 +100,8 @@ class PandaSim(EngineSim):
         self._rng = np.random.default_rng(seed)
         self.state = np.zeros((n, 14))
         self.state[:, 4] = 1.0
+        self._aligned: dict[str, np.ndarray] = {}
+        """Module id -> the joints that hold its peg aligned over its hole (_aligned_joints)."""
         self.unreached: dict[int, str] = {}
         """Env -> why its last refused pose was out of reach (place)."""
         self.wrist = np.zeros((n, 6))
@@ -137,14 +144,41 @@ class PandaSim(EngineSim):
     # ------------------------------------------------------------------ poses
 
     def _entrance_pose(self, e: int) -> tuple[np.ndarray, np.ndarray]:
-        ent = self.assets[e].entrance
+        """The pose a new env's peg waits in: aligned with its hole, 0.2 m over the entrance."""
+        a = self.assets[e]
         quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, ent[:3, :3].ravel())
-        return ent[:3, 3] + ent[:3, 2] * 0.2, quat
+        mujoco.mju_mat2Quat(quat, a.bottom[:3, :3].ravel())
+        return a.entrance[:3, 3] + a.bottom[:3, 2] * 0.2, quat
+
+    ALIGNED_HEIGHT = 0.05
+    """The aligned pose's height over the entrance along the hole's axis, m."""
+
+    def _aligned_joints(self, e: int) -> np.ndarray:
+        """The joints that hold env e's peg in its hole's orientation ALIGNED_HEIGHT over
+        the entrance on the hole's axis, the pose every insertion passes (inverse
+        kinematics from HOME; UnreachableError naming the module and the joints where the
+        arm cannot)."""
+        a = self.assets[e]
+        q = self._aligned.get(a.id)
+        if q is None:
+            quat = np.zeros(4)
+            mujoco.mju_mat2Quat(quat, a.bottom[:3, :3].ravel())
+            pos = a.entrance[:3, 3] + a.bottom[:3, 2] * self.ALIGNED_HEIGHT
+            q, limits = reach(self.models[e], self._scratch[e], pos, quat, self._rng)
+            if q is None:
+                raise UnreachableError(
+                    f"module {a.id}: the Panda cannot hold its peg aligned over the hole; "
+                    f"stopped by {', '.join(limits) or 'its reach'}"
+                )
+            self._aligned[a.id] = q
+        return q
 
     def _place(self, e: int, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Put env e's peg at pos, quat through the arm, in the posture reached by carrying
+        the peg there from its aligned pose (kinematics.carry): the insertion's path back
+        is then in the arm's reach, joint limits included (UnreachableError if not)."""
         m, d = self.models[e], self._scratch[e]
-        q, limits = reach(m, d, pos, quat, self._rng)
+        q, limits = carry(m, d, self._aligned_joints(e), pos, quat)
         if q is None:
             raise UnreachableError(
                 f"module {self.assets[e].id}: the Panda cannot hold its peg at "
