@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sim.bench.stress.figures import targets
+from sim.bench.stress.figures import TARGETS, targets
 
 
 def _pct(s: dict, key: str) -> str:
@@ -57,12 +57,11 @@ def table(docs: list[dict], labels: list[str]) -> str:
     for name, cell in ROWS:
         lines.append(f"| {name} | " + " | ".join(cell(s) for s in sums) + " |")
     met = [targets(s) for s in sums]
-    for target in met[0]:
-        lines.append(
-            f"| target: {target} | "
-            + " | ".join("met" if m[target] else "**missed**" for m in met)
-            + " |"
-        )
+    for target in TARGETS:
+        if not any(target in m for m in met):
+            continue
+        cells = ("–" if target not in m else "met" if m[target] else "**missed**" for m in met)
+        lines.append(f"| target: {target} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

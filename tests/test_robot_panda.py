@@ -335,3 +335,53 @@ def test_readings_need_a_robot_in_one_line(capsys) -> None:
     assert code == 2 and len(err) == 1 and "give --robot panda" in err[0], err
     with pytest.raises(ValueError, match="readings"):
         TaskConfig(readings=("elbow",)).validate()
+
+
+def test_the_arm_holding_the_peg_meets_the_contact_targets(assets, task, capsys) -> None:
+    """The stress benchmark's pushes and impacts through the arm (its 50 N push, against the
+    floating peg's 9.1 N): no pass-through, penetration within the floating peg's targets;
+    friction and rebound, which only the floating peg runs, are neither printed nor judged."""
+    import json
+
+    import cli
+    from sim.bench.stress.cases import StressConfig
+    from sim.bench.stress.figures import summarize, targets
+    from sim.robots.panda.stress import stress_on_panda
+
+    fast = StressConfig(max_faces=4, even=4, rim_directions=2, cases=("push", "impact"))
+    records = stress_on_panda(assets[:1], fast, task, nthread=1)
+    s = summarize(records, assets[0].clearance)
+    assert s["pushes"] >= 16 and s["impacts"] >= 5 and records[0]["arm_unstarted"] == 0
+    met = targets(s)
+    assert "friction within 5 %" not in met and "rebound e <= 0.1" not in met
+    assert met["no pass-through"], s
+    assert all(ok for name, ok in met.items() if "penetration" in name), s
+    # the command: the refused module named, the robot's cases only
+    code = cli.main(["bench", "contacts", str(sim_dataset()), "--limit", "1", "--robot", "panda",
+                     "--cases", "friction"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "push,impact only" in err[0]
+    assert json.dumps(s["kinds"]) == '["impact", "push"]'
+
+
+def test_a_spawn_whose_way_back_passes_a_joint_limit_is_refused(assets, task) -> None:
+    """The peg turned about the hole's axis by 170 degrees from its seat's orientation, away
+    from the entrance's (the grasp centres joint 7 between the two): the arm cannot carry it
+    there from the hole the short way, within joint 7's range, so the placement refuses it,
+    naming the joint; half a radian the same way is in reach."""
+    from sim.robots.panda.sim import PandaSim
+
+    sim = PandaSim(assets[:1], task)
+    a = assets[0]
+    seat = np.zeros(4)
+    mujoco.mju_mat2Quat(seat, a.bottom[:3, :3].ravel())
+    away = 1.0 if np.arctan2(a.bottom[1, 0], a.bottom[0, 0]) >= 0 else -1.0
+    near, far = np.zeros(4), np.zeros(4)
+    for out, angle in ((near, 0.5 * away), (far, np.radians(170.0) * away)):
+        turn = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(turn, a.bottom[:3, 2], angle)
+        mujoco.mju_mulQuat(out, turn, seat)
+    above = a.entrance[:3, 3] + 0.1 * a.bottom[:3, 2]
+    ok = sim.place(np.array([0, 0]), np.array([above, above]), np.array([near, far]))
+    assert ok.tolist() == [True, False], ok
+    assert "joint7" in sim.unreached[0], sim.unreached[0]

@@ -72,7 +72,7 @@ def add_parsers(bench: argparse._SubParsersAction) -> None:
     )
     c.add_argument("--threads", type=int, default=None, help="MuJoCo's rollout threads")
     c.add_argument("--json", metavar="FILE", default=None, help="write every run's figures here")
-    add_engine_argument(c, f"the engine ({engines}; default %(default)s)", robots=False)
+    add_engine_argument(c, f"the engine ({engines}; default %(default)s)")
     c.set_defaults(func=run_contacts)
 
 

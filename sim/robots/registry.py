@@ -35,16 +35,19 @@ class Robot:
     """(module asset) -> str | None: why the robot cannot hold that module's peg (a sentence
     naming the module), or None where it can. Envs built from a dataset leave refused
     modules out and name them (PegInHoleVecEnv.refused)."""
+    stress: str
+    """The contact stress benchmark's runner with the robot holding the peg (the engines'
+    runner signature, sim/engines/registry.py)."""
     engines: tuple[str, ...]
     """The engines (sim/engines/registry.py) that carry it."""
     extra: str
     """The pip extra that installs its model."""
 
     def load(self, field: str) -> Any:
-        """The object that `field` ("sim", "scene" or "refuses") names."""
-        if field not in ("sim", "scene", "refuses"):
+        """The object that `field` ("sim", "scene", "refuses" or "stress") names."""
+        if field not in ("sim", "scene", "refuses", "stress"):
             raise ValueError(
-                f"{field!r} is not one of a robot's fields ('sim', 'scene', 'refuses')"
+                f"{field!r} is not one of a robot's fields ('sim', 'scene', 'refuses', 'stress')"
             )
         return load_reference(getattr(self, field))
 
@@ -58,6 +61,7 @@ ROBOTS: dict[str, Robot] = {
             sim="sim.robots.panda.sim:PandaSim",
             scene="sim.robots.panda.scene:build_arm_spec",
             refuses="sim.robots.panda.scene:refusal",
+            stress="sim.robots.panda.stress:stress_on_panda",
             engines=("mujoco",),
             extra="robot",
         ),

@@ -17,6 +17,12 @@ from sim.bench.stress.figures import format_summary, summarize, targets
 from sim.engines.registry import get_engine
 from sim.task.config import PhysicsConfig, TaskConfig
 
+ROBOT_CASES = ("push", "impact")
+"""The cases a robot holding the peg runs. The friction runs infer the contact's forces from
+the actuators' gain, which leaves out the arm's own joint forces, and the rebound runs let go
+of the peg, which an arm does not: both measure the contact model, which the arm leaves as it
+is (the same geoms and parameters), so the floating peg's figures stand for them."""
+
 
 def main(args) -> int:
     """`assetgen bench contacts DATASET`: args.dataset, args.limit, args.physics_version (an
@@ -47,19 +53,38 @@ def main(args) -> int:
     else:
         known = sorted([*LEGACY_PHYSICS, PHYSICS_VERSION])
         raise ValueError(f"--physics-version {version}: the versions are {known}")
+    from sim.robots.registry import check_robot
+
+    robot = check_robot(getattr(args, "robot", None), get_engine(getattr(args, "sim", None)).name)
     cfg = StressConfig()
     if args.cases:
         cases = tuple(args.cases.split(","))
         bad = sorted(set(cases) - set(cfg.cases))
         if bad:
             raise ValueError(f"--cases: unknown {bad}; valid: {','.join(cfg.cases)}")
+        if robot is not None and set(cases) - set(ROBOT_CASES):
+            raise ValueError(f"--cases {args.cases} with --robot: a robot runs "
+                             f"{','.join(ROBOT_CASES)} only (see ROBOT_CASES)")  # fmt: skip
         cfg = replace(cfg, cases=cases)
+    elif robot is not None:
+        cfg = replace(cfg, cases=ROBOT_CASES)
     push_time = getattr(args, "push_time", None)
     if push_time is not None:
         if not push_time > 2 * cfg.window:
             raise ValueError(f"--push-time {push_time}: give more than {2 * cfg.window} s")
         cfg = replace(cfg, push_time=push_time)
     assets = load_dataset(root, ids)
+    refused: dict[str, str] = {}
+    if robot is not None:
+        if args.source == "mjcf" or version is not None or args.set:
+            raise ValueError(f"--robot {robot.name} runs the simulator's models at the "
+                             "project's physics: drop --source mjcf, --physics-version and "
+                             "--set")  # fmt: skip
+        refuses = robot.load("refuses")
+        refused = {a.id: why for a in assets if (why := refuses(a)) is not None}
+        assets = [a for a in assets if a.id not in refused]
+        if not assets:
+            raise ValueError(next(iter(refused.values())))
     # the dataset's clearance sets the step (physics_for), unless an older version is asked
     base = base or physics_for(min(a.clearance for a in assets))
     spec = get_engine(getattr(args, "sim", None))
@@ -86,8 +111,12 @@ def main(args) -> int:
     )
     files = {"mjcf": mjcf, "nthread": args.threads} if spec.reads_mjcf else {}
     t0 = time.perf_counter()
-    records = spec.load("stress")(assets, cfg, TaskConfig(physics=physics), settings,
-                                  progress=progress, **files)  # fmt: skip
+    if robot is not None:
+        records = robot.load("stress")(assets, cfg, TaskConfig(physics=physics),
+                                       progress=progress, nthread=args.threads)  # fmt: skip
+    else:
+        records = spec.load("stress")(assets, cfg, TaskConfig(physics=physics), settings,
+                                      progress=progress, **files)  # fmt: skip
     print(file=sys.stderr)
     seconds = time.perf_counter() - t0
     clearances = sorted({a.clearance for a in assets})
@@ -97,8 +126,13 @@ def main(args) -> int:
         print(
             f"{root}: {s['modules']} modules, clearance {s['clearance'] * 1e3:g} mm, "
             f"{'exported files' if mjcf else 'simulator models' if spec.reads_mjcf else spec.label}"
-            f", {seconds:.0f} s"
+            f"{f', held by the {robot.label}' if robot else ''}, {seconds:.0f} s"
         )
+        if refused:
+            print(f"  refused by the {robot.label}: {', '.join(sorted(refused))}")
+        unstarted = sum(r.get("arm_unstarted", 0) for r in records)
+        if robot is not None:
+            print(f"  runs the arm could not start: {unstarted}")
         rows = format_summary(s)
         width = max(len(k) for k, _ in rows)
         for k, v in rows:
@@ -112,6 +146,7 @@ def main(args) -> int:
                 "dataset": recorded_path(root),
                 "source": args.source,
                 "engine": spec.name,
+                **({"robot": robot.name, "refused_modules": sorted(refused)} if robot else {}),
                 "physics": asdict(settings) if mjcf is None else "the exported files'",
                 "physics_version": version or PHYSICS_VERSION,
                 "stress": asdict(cfg),

@@ -121,6 +121,7 @@ def summarize(records: list[dict], clearance: float) -> dict:
     straight = [r for r in pushes if not r["twist"]]
     twisting = [r for r in pushes if r["twist"]]
     out: dict = {
+        "kinds": sorted({r["kind"] for r in records}),
         "modules": len({r["module"] for r in records}),
         "clearance": clearance,
         "pushes": len(pushes),
@@ -176,9 +177,19 @@ TARGETS: dict[str, Callable[[dict], bool]] = {
 """The contact targets, each a test of a summary."""
 
 
+TARGET_KINDS = {"friction within 5 %": "friction", "rebound e <= 0.1": "rebound"}
+"""Targets that only a case family's runs test (the rest: pushes and impacts)."""
+
+
 def targets(summary: dict) -> dict[str, bool]:
-    """Which targets a summary meets."""
-    return {name: bool(test(summary)) for name, test in TARGETS.items()}
+    """Which targets a summary meets, of those its runs test (a summary without `kinds`, from
+    before the field: every target)."""
+    kinds = summary.get("kinds")
+    return {
+        name: bool(test(summary))
+        for name, test in TARGETS.items()
+        if kinds is None or TARGET_KINDS.get(name, "push") in kinds
+    }
 
 
 _ROWS = (
@@ -203,7 +214,10 @@ def format_summary(s: dict) -> list[tuple[str, str]]:
     """(figure, value) rows of a summary, lengths in mm and as a fraction of the clearance."""
     c = s["clearance"]
     rows = []
+    kinds = s.get("kinds", ("friction", "rebound"))
     for name, key, unit in _ROWS:
+        if {"ratio": "friction", "e": "rebound"}.get(unit, "push") not in kinds:
+            continue  # a case family not run
         if unit == "mm":
             keys = key if isinstance(key, tuple) else (key,)
             text = " / ".join(f"{s[k] * 1e3:.3f} mm ({s[k] / c:.0%})" for k in keys)

@@ -34,7 +34,7 @@ STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # ----------------------------------------------------------------------------- models
 
 
-def _add_contact_sensor(spec: mujoco.MjSpec, body: str) -> None:
+def add_contact_sensor(spec: mujoco.MjSpec, body: str) -> None:
     """The deepest contact of `body` each step: sensordata (found, dist)."""
     s = spec.add_sensor()
     s.name = "peg_contact"
@@ -58,7 +58,7 @@ def module_model(
         )
     else:
         spec = mujoco.MjSpec.from_file(mjcf)
-    _add_contact_sensor(spec, "peg")
+    add_contact_sensor(spec, "peg")
     return spec.compile()
 
 

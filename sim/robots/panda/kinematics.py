@@ -131,6 +131,7 @@ def carry(
     step_rot: float = 0.05,
     tol: float = 1e-4,
     margin: float = LIMIT_MARGIN,
+    collide: bool = True,
 ) -> tuple[np.ndarray | None, list[str]]:
     """Carry the peg from where joints q (7,) hold it to pos (3,), quat (4,), along the straight
     line and the shortest turn, in steps of at most `step_lin` m and `step_rot` rad, each a
@@ -138,7 +139,8 @@ def carry(
     the result is a posture the arm reaches from q along that path, not merely one that
     holds the pose. Returns the joints at the end (d's qpos is left at them), or None where
     the path ends off the pose (error over `tol`), or where a joint comes within margin / 2
-    of its limit on the way or ends within `margin` of it; then also the joints that did."""
+    of its limit on the way or ends within `margin` of it, or (with `collide`) where the arm or
+    the peg touches the module on the way; then also the joints (or the body) that did."""
     lo, hi = m.jnt_range[:7, 0], m.jnt_range[:7, 1]
     d.qpos[:7] = q
     p0, q0 = _peg_pose(m, d)
@@ -157,7 +159,7 @@ def carry(
         q, err, _ = place_peg(m, d, p0 + f * (pos - p0), target_q, q,
                               iterations=50 if k == n else 4, tol=tol)  # fmt: skip
         near |= (q - lo < 0.5 * margin) | (hi - q < 0.5 * margin)
-        if k % 4 == 0 or k == n:
+        if collide and (k % 4 == 0 or k == n):
             touching = _touches(m, d)
             if touching:
                 return None, [f"the {touching} touching the module"]

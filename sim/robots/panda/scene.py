@@ -41,7 +41,8 @@ WRIST_SITE = "wrist_site"
 GRASP_YAW = -0.765
 """The peg's turn about the flange's z in the fingers for a hole without yaw, rad: upright
 over the hole, the arm then has joint 7 at the middle of its range (HOME). `grasp` turns it by
-each hole's yaw, so that every seated peg is at joint 7's middle."""
+half each hole's yaw, so that the seated peg and the entrance's orientation sit either side of
+joint 7's middle."""
 SENSORS = ("peg_pos", "peg_quat", "peg_linvel", "peg_angvel", "wrist_force", "wrist_torque")
 SENSOR_DIMS = (3, 4, 3, 3, 3, 3)
 
@@ -98,16 +99,17 @@ def grasp(asset: ModuleAsset, mount: Mount) -> tuple[float, float]:
     """The peg's turn about the flange's z in the fingers (rad) and how much of its top they
     cover (m).
 
-    The turn: GRASP_YAW less the yaw of the module's seated peg (its hole's yaw, up to 180
-    degrees either way), so that the arm holds the seated peg with joint 7 at the middle of
-    its range and a turn of the peg about its axis by up to 166 degrees either way from its
-    hole's orientation is in the wrist's reach. The grip: `mount.max_grip`, at most half of
+    The turn: GRASP_YAW less half the yaw of the module's seated peg (its hole's yaw, up to
+    180 degrees either way), so that joint 7 holds both the entrance's orientation (the
+    middle of the spawns, and every spawn at the curriculum's start) and the seat's at most
+    90 degrees from the middle of its range, and the turn between them, the shorter way,
+    passes through it. The grip: `mount.max_grip`, at most half of
     what stays out of the hole, and no deeper than keeps the fingertips `finger_clearance`
     above the surface of a seated peg in a tilted hole; where the tilt asks for less than
     that, the turn moves (up to 90 degrees, the least that does) until the fingers straddle
     the tilt's axis. ValueError (naming the module) where no turn gives `mount.min_grip`."""
     r = asset.bottom[:3, :3]
-    centre = GRASP_YAW - math.atan2(r[1, 0], r[0, 0])
+    centre = GRASP_YAW - 0.5 * math.atan2(r[1, 0], r[0, 0])
     h = float(asset.peg.vertices[:, 2].max())
     want = min(mount.max_grip, 0.5 * (h + float(asset.bottom[2, 3])))
     width = min(grasp_width(asset) + 0.002, MAX_OPENING)
