@@ -148,6 +148,15 @@ class BrowseMixin:
                 self.g_module.value = mid
             self._remove("/module")
             self.nodes.update(nodes.add_module(self.server.scene, view))
+            self.arm = None
+            if self.robot is not None:
+                from preview.arm import ArmView
+
+                try:
+                    self.arm = ArmView(self.ds.module_dir(mid), self.robot)
+                    self.nodes.update(nodes.add_arm(self.server.scene, self.arm))
+                except PreviewError as e:
+                    self.report("error", str(e))
             if self.live is not None:
                 self.nodes["/module/observed"] = nodes.add_observed_peg(self.server.scene, view)
                 if self.live.module_id != mid:
@@ -195,9 +204,15 @@ class BrowseMixin:
                 return
             pos, quat = self.peg_pose()
             peg = self.nodes["/module/peg"]
+            arm = None
+            if self.arm is not None:  # the live robot's own joints, else carried by the arm
+                live = self.live.frame if self._live_active() and self.live is not None else None
+                arm = self.arm.pose(pos, quat, None if live is None else live.joints)
             with self.server.atomic():
                 peg.position = pos
                 peg.wxyz = quat
+                if arm is not None:
+                    nodes.pose_arm(self.nodes, arm)
                 if self._live_active() and "/module/observed" in self.nodes:
                     assert self.live is not None and self.live.frame is not None
                     seen = self.live.frame.observed_pose

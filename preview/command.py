@@ -2,7 +2,7 @@
 command runs).
 
     assetgen view DATASET [--module ID] [--episode FILE] [--host H] [--port P] [--html OUT]
-                          [--policy RUN_OR_POLICY_DIR [--record DIR]]
+                          [--policy RUN_OR_POLICY_DIR [--record DIR]] [--robot panda]
 
 cli.py calls `add_parser(subparsers)`, which declares the flags (`add_arguments`) and sets
 `view_main` as the handler.
@@ -49,6 +49,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="training run or exported policy folder (holds checkpoint.safetensors): run it "
         "live on the shown module (needs the [rl] extra)",
+    )
+    from sim.robots.registry import robot_names
+
+    p.add_argument(
+        "--robot",
+        choices=robot_names(),
+        default=None,
+        help="show a robot holding the peg (its links posed to the peg's pose; a live "
+        "--policy runs through it); needs the [robot] extra",
     )
     p.add_argument(
         "--record",
@@ -104,7 +113,8 @@ def view_main(args: argparse.Namespace) -> int:
         from preview.snapshot import write_html
 
         try:
-            path = write_html(args.dataset, args.html, module=args.module, episode=args.episode)
+            path = write_html(args.dataset, args.html, module=args.module, episode=args.episode,
+                              robot=getattr(args, "robot", None))  # fmt: skip
         except PreviewError as e:
             return print_error(str(e))
         size = path.stat().st_size / 1e6
@@ -124,6 +134,7 @@ def view_main(args: argparse.Namespace) -> int:
             console=err,
             policy=policy,
             record=record,
+            robot=getattr(args, "robot", None),
         )
     except PreviewError as e:  # no such dataset, a host it cannot listen on, a bad policy
         return print_error(str(e))

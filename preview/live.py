@@ -66,6 +66,8 @@ class LiveFrame:
     unstable physics."""
     recording: Path | None = None
     """The episode file, written when the episode ended."""
+    joints: np.ndarray | None = None
+    """The robot's joint positions (rad) when a robot holds the peg, else None."""
 
     @property
     def time_s(self) -> float:
@@ -145,11 +147,14 @@ class LivePolicy:
         seed: int = 0,
         on_step: Callable[[LiveFrame], None] | None = None,
         on_error: Callable[[str], None] | None = None,
+        robot: str | None = None,
     ) -> None:
         import torch
 
         from rl.agents import reset_hook
 
+        self.robot = robot
+        """The registered robot holding the peg (None: the floating peg)."""
         self.checkpoint = find_checkpoint(path)
         self.agent, self.meta = load_policy(path)
         self._reset_agent = reset_hook(self.agent)
@@ -218,7 +223,10 @@ class LivePolicy:
                 raise PreviewError(f"cannot simulate this module: {e}") from e
             if self.env is not None:
                 self.env.close()
-            env = PegInHoleVecEnv([asset], 1, EVAL_CONFIG, nthread=1)  # one env, one thread
+            try:  # one env, one thread
+                env = PegInHoleVecEnv([asset], 1, EVAL_CONFIG, nthread=1, robot=self.robot)
+            except ValueError as e:  # a module the robot refuses, or cannot hold over its hole
+                raise PreviewError(f"cannot simulate this module: {e}") from e
             self.base_env = env
             if self.stack > 1:
                 from rl.stack import StackObs
@@ -283,6 +291,7 @@ class LivePolicy:
             success,
             ended,
             recording,
+            None if self.robot is None else self.base_env.sim.joint_positions()[0],
         )
 
     def observed_pose(self, obs: np.ndarray) -> np.ndarray:

@@ -106,6 +106,32 @@ def add_module(
     return h
 
 
+def add_arm(scene: viser.SceneApi, arm: Any, prefix: str = "/module/arm") -> dict[str, Any]:
+    """A robot's links (preview.arm.ArmView) under `prefix`: a frame a link, posed by
+    `pose_arm`, holding its meshes. Returns handles by name."""
+    h: dict[str, Any] = {prefix: scene.add_frame(prefix, show_axes=False)}
+    for i, link in enumerate(arm.links):
+        name = f"{prefix}/{link.body}"
+        if name not in h:
+            h[name] = scene.add_frame(name, show_axes=False)
+        h[f"{name}/mesh{i}"] = scene.add_mesh_simple(
+            f"{name}/mesh{i}", link.vertices, link.faces, color=link.rgb, flat_shading=False
+        )
+    return h
+
+
+def pose_arm(
+    handles: dict[str, Any], poses: dict[str, tuple[np.ndarray, np.ndarray]],
+    prefix: str = "/module/arm",
+) -> None:  # fmt: skip
+    """Move the links' frames to `poses` (body name -> position, quaternion wxyz)."""
+    for body, (pos, quat) in poses.items():
+        frame = handles.get(f"{prefix}/{body}")
+        if frame is not None:
+            frame.position = pos
+            frame.wxyz = quat
+
+
 def add_observed_peg(
     scene: viser.SceneApi, view: ModuleView, name: str = "/module/observed"
 ) -> Any:

@@ -110,8 +110,14 @@ class PreviewApp(BrowseMixin, PlayerMixin, LivePanelMixin):
     kept in `messages` as (level, text).
     """
 
-    def __init__(self, server: viser.ViserServer, console: Console | None = None):
+    def __init__(
+        self, server: viser.ViserServer, console: Console | None = None, robot: str | None = None
+    ):
         self.server = server
+        self.robot = robot
+        """A registered robot shown holding the peg (None: the floating peg)."""
+        self.arm: Any = None
+        """The shown module's preview.arm.ArmView when a robot is shown."""
         self.console = console or Console(stderr=True)
         self.lock = threading.RLock()
         self.ds: Dataset | None = None
@@ -276,6 +282,7 @@ def serve(
     console: Console | None = None,
     policy: Path | str | None = None,
     record: Path | str | None = None,
+    robot: str | None = None,
 ) -> ViewerHandle:
     """Start the preview of `dataset` (spec name or folder) and return at once.
 
@@ -287,7 +294,8 @@ def serve(
     `policy` (a run or exported policy folder, or its checkpoint file) adds the Policy
     controls (preview/live.py); its episodes are written to `record` (default: a new
     temporary folder, printed). A policy that cannot be loaded or does not fit the task
-    raises PreviewError before the server starts.
+    raises PreviewError before the server starts. `robot` (a registered robot's name) shows
+    it holding the peg (preview/arm.py), and the live policy runs through it.
     """
     console = console or Console(stderr=True)
     try:
@@ -305,7 +313,7 @@ def serve(
     if policy is not None:
         from preview.live import LivePolicy
 
-        live = LivePolicy(policy, record)
+        live = LivePolicy(policy, record, robot=robot)
         console.print(
             f"live policy: episodes are recorded to [bold]{live.record_dir}[/]", highlight=False
         )
@@ -327,7 +335,7 @@ def serve(
         if episode is not None:
             app_a.load_episode(episode)
         return ViewerHandle(server, app_a, url, host, bound)  # type: ignore[arg-type]
-    app = PreviewApp(server, console)
+    app = PreviewApp(server, console, robot=robot)
     app.open_dataset(dataset, module=module)
     if live is not None:
         app.attach_policy(live)

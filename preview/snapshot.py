@@ -67,12 +67,19 @@ def write_html(
     *,
     module: str | None = None,
     episode: str | Path | None = None,
+    robot: str | None = None,
 ) -> Path:
     """Write a self-contained HTML snapshot of one module (default: the episode's module or
-    the dataset's first) to `out`; with `episode`, the page replays it. Returns the path.
+    the dataset's first) to `out`; with `episode`, the page replays it; with `robot` (no
+    episode), the robot holds the seated peg. Returns the path.
 
     Raises PreviewError for bad input (no server is left running).
     """
+    if robot is not None and episode is not None:
+        raise PreviewError(
+            "--html --robot shows a module with the robot holding its peg; replay an episode "
+            "with the robot in the live viewer (drop --html)"
+        )
     ds = open_dataset(dataset)
     ep = load_episode(episode, ds) if episode is not None else None
     if ep is not None:
@@ -93,6 +100,12 @@ def write_html(
         nodes.configure_camera(server)
         handles = nodes.add_module(server.scene, view)
         nodes.add_section(server.scene, view.section(), visible=False)
+        if robot is not None:
+            from preview.arm import ArmView
+
+            arm = ArmView(ds.module_dir(mid), robot)
+            arm_nodes = nodes.add_arm(server.scene, arm)
+            nodes.pose_arm(arm_nodes, arm.pose(*view.peg_pose(0.0)))
         if ep is None:
             page = server.scene.as_html()
         else:

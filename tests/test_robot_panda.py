@@ -385,3 +385,44 @@ def test_a_spawn_whose_way_back_passes_a_joint_limit_is_refused(assets, task) ->
     ok = sim.place(np.array([0, 0]), np.array([above, above]), np.array([near, far]))
     assert ok.tolist() == [True, False], ok
     assert "joint7" in sim.unreached[0], sim.unreached[0]
+
+
+def test_the_preview_shows_the_arm_holding_the_peg(assets) -> None:
+    """preview.arm: the links posed so the arm's peg is where the preview shows it, moving
+    continuously down the hole; the viewer adds the links with --robot; a refused module is
+    a message in the page, not a crash."""
+    import io
+
+    from rich.console import Console
+
+    from preview.arm import ArmView
+    from preview.scene import ModuleView, PreviewError, open_dataset
+    from preview.server import serve
+    from sim.engines.mujoco.scene import PEG_SITE
+
+    ds = open_dataset(str(sim_dataset()))
+    a = assets[0]
+    arm = ArmView(ds.module_dir(a.id))
+    view = ModuleView(ds, a.id)
+    last = None
+    for lift in np.linspace(0.04, 0.0, 9):
+        pos, quat = view.peg_pose(float(lift))
+        poses = arm.pose(pos, quat)
+        site = arm.data.site_xpos[arm.model.site(PEG_SITE).id]
+        np.testing.assert_allclose(site, pos, atol=1e-4)
+        if last is not None:
+            assert np.abs(arm.joints - last).max() < 0.1  # 5 mm a pose: no jump
+        last = arm.joints.copy()
+    assert {"panda0_link0", "panda0_link7", "panda0_leftfinger"} <= set(poses)
+    with pytest.raises(PreviewError, match=r"002048.*fingers"):
+        ArmView(ds.module_dir("002048"))
+
+    handle = serve(str(sim_dataset()), console=Console(file=io.StringIO()), robot="panda")
+    try:
+        app = handle.app
+        assert app.show_module(a.id) and "/module/arm/panda0_link7" in app.nodes
+        app.show_module("002048")
+        assert "/module/arm/panda0_link7" not in app.nodes
+        assert any("fingers" in text for level, text in app.messages if level == "error")
+    finally:
+        handle.stop()
