@@ -90,7 +90,8 @@ def expert(dataset: str, modules: int, controller: str = "impedance", seed: int 
     config = replace(eval_config(), physics=physics_for(min(a.clearance for a in assets)))
     out: dict = {"dataset": str(dataset), "modules": len(assets), "controller": controller}
     for robot in ("panda", None):
-        env = PegInHoleVecEnv(assets, len(assets), config, assignment_seed=seed, robot=robot,
+        # one env a module the robot holds (it refuses some by name: `refused`)
+        env = PegInHoleVecEnv(assets, None, config, assignment_seed=seed, robot=robot,
                               robot_settings=_settings(controller))  # fmt: skip
         obs = env.reset(seed=seed)
         result = np.zeros(env.num_envs, dtype=int)  # 1 success, 2 failure, 3 truncated
@@ -102,6 +103,8 @@ def expert(dataset: str, modules: int, controller: str = "impedance", seed: int 
             if (result > 0).all():
                 break
         out["panda" if robot else "floating"] = {
+            "modules": env.num_envs,
+            "refused": sorted(env.refused),
             "success": float(np.mean(result == 1)),
             "failure": float(np.mean(result == 2)),
             "truncated": float(np.mean(result == 3)),

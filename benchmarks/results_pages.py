@@ -167,47 +167,89 @@ def referee_table() -> str:
 
 ROBOT_AGENTS = ("scripted", "scripted-direct", "sac-teacher-free", "sac-direct-bc",
                 "sac-fast-bc", "dreamer-direct-bc")  # fmt: skip
-"""The robot page's rows, for each registered robot (sim/robots/registry.py) ROBOT:
-docs/results/robot/AGENT_{none,ROBOT}_test64.json, the floating peg and the robot on the first
-64 test modules; both success rates are over the modules the robot holds (it refuses some by
-name). Rows whose files are missing are left out."""
+"""The robot page's shipped agents: for each registered robot (sim/robots/registry.py) ROBOT
+and clearance, docs/results/robot/AGENT_{none,ROBOT}_test64{SUFFIX}.json, the floating peg and
+the robot on the first 64 test modules; both success rates are over the modules the robot holds
+(it refuses some by name). Rows whose files are missing are left out."""
+ROBOT_CLEARANCES = (("1 mm", ""), ("0.25 mm", "_c025"))
+"""(clearance, file suffix): the test split, and its first 64 modules at 0.25 mm
+(`assetgen sample --n 64 --seed 2048 --clearance-mm 0.25`)."""
+ROBOT_TRAINED = (
+    ("sac-teacher-free recipe, trained on the arm", "arm-sac"),
+    ("the same with the wrist reading", "arm-sac-wrist"),
+)
+"""Policies trained on the robot: (label, NAME); their files NAME_sSEED_{none,ROBOT}_test64
+{SUFFIX}.json, one a seed (a policy with the wrist reading has no floating file)."""
 
 
-def robot_files(agent: str, robot: str) -> tuple[Path, Path]:
+def robot_files(agent: str, robot: str, suffix: str = "") -> tuple[Path, Path]:
     """The floating peg's and `robot`'s evaluation files of `agent` on the robot page."""
-    return tuple(RESULTS / "robot" / f"{agent}_{r}_test64.json" for r in ("none", robot))
+    return tuple(RESULTS / "robot" / f"{agent}_{r}_test64{suffix}.json" for r in ("none", robot))
+
+
+def _held_rate(doc: dict, held: list[str]) -> float:
+    """A document's success rate over the modules `held` (its per-module rates)."""
+    return float(np.mean([doc["per_module"][m] for m in held]))
 
 
 def robot_table() -> str:
     """The floating peg against each robot (docs/results/robot/table.md), from the
-    evaluation files."""
+    evaluation files: the shipped agents unchanged, then the policies trained on the robot
+    (mean ± std over their seeds)."""
     import json
 
     from sim.robots.registry import ROBOTS
 
     rows = [
-        "| agent | robot | modules × attempts | floating | robot | gap | median time (floating "
-        "/ robot) | robot truncated / failed |\n|---|---|---|---|---|---|---|---|"
+        "| clearance | agent | robot | modules × attempts | floating | robot | gap | median "
+        "time (floating / robot) | robot truncated / failed |\n" + "|---" * 9 + "|"
     ]
     for robot in ROBOTS.values():
-        for agent in ROBOT_AGENTS:
-            files = robot_files(agent, robot.name)
-            if not all(f.exists() for f in files):
-                continue
-            free, arm = (json.loads(f.read_text()) for f in files)
-            assert free.get("robot") is None and arm.get("robot") == robot.name, agent
-            # the floating peg on the modules the robot holds (it refuses some by name)
-            held = list(arm["per_module"])
-            floating = float(np.mean([free["per_module"][m] for m in held]))
-            rows.append(
-                f"| {agent} | {robot.label} | {len(held)} of {free['modules']} × "
-                f"{arm['attempts']} | {100 * floating:.2f} % | "
-                f"{100 * arm['success_rate']:.2f} % | "
-                f"{100 * (arm['success_rate'] - floating):+.2f} | "
-                f"{free['median_time_to_success_s']:.2f} / "
-                f"{arm['median_time_to_success_s']:.2f} s | "
-                f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"
-            )
+        for clearance, suffix in ROBOT_CLEARANCES:
+            for agent in ROBOT_AGENTS:
+                files = robot_files(agent, robot.name, suffix)
+                if not all(f.exists() for f in files):
+                    continue
+                free, arm = (json.loads(f.read_text()) for f in files)
+                assert free.get("robot") is None and arm.get("robot") == robot.name, agent
+                held = list(arm["per_module"])  # the floating peg on the modules it holds
+                floating = _held_rate(free, held)
+                rows.append(
+                    f"| {clearance} | {agent} | {robot.label} | {len(held)} of "
+                    f"{free['modules']} × {arm['attempts']} | {100 * floating:.2f} % | "
+                    f"{100 * arm['success_rate']:.2f} % | "
+                    f"{100 * (arm['success_rate'] - floating):+.2f} | "
+                    f"{free['median_time_to_success_s']:.2f} / "
+                    f"{arm['median_time_to_success_s']:.2f} s | "
+                    f"{100 * arm['truncation_rate']:.2f} / {100 * arm['failure_rate']:.2f} % |"
+                )
+            for label, name in ROBOT_TRAINED:
+                seeds = sorted(RESULTS.glob(f"robot/{name}_s*_{robot.name}_test64{suffix}.json"))
+                if not seeds:
+                    continue
+                arms = [json.loads(f.read_text()) for f in seeds]
+                held = list(arms[0]["per_module"])
+                frees = [
+                    json.loads(f.read_text())
+                    for f in (Path(str(g).replace(f"_{robot.name}_", "_none_")) for g in seeds)
+                    if f.exists()
+                ]
+
+                def pm(values: list[float]) -> str:
+                    return f"{100 * np.mean(values):.2f} ± {100 * np.std(values):.2f} %"
+
+                a = [d["success_rate"] for d in arms]
+                f = [_held_rate(d, held) for d in frees]
+                steps = sorted({d["trained_env_steps"] for d in arms})
+                rows.append(
+                    f"| {clearance} | {label} ({len(arms)} seeds, {steps[0] / 1e6:.2f}–"
+                    f"{steps[-1] / 1e6:.2f} M env steps) | {robot.label} | {len(held)} of "
+                    f"{arms[0]['modules']} × {arms[0]['attempts']} | "
+                    f"{pm(f) if frees else '–'} | {pm(a)} | "
+                    f"{f'{100 * (np.mean(a) - np.mean(f)):+.2f}' if frees else '–'} | – | "
+                    f"{100 * np.mean([d['truncation_rate'] for d in arms]):.2f} / "
+                    f"{100 * np.mean([d['failure_rate'] for d in arms]):.2f} % |"
+                )
     return "\n".join(rows) + "\n"
 
 

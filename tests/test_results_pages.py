@@ -75,18 +75,34 @@ def test_assembly_page_is_generated_from_its_files() -> None:
 
 
 def test_robot_page_is_generated_from_its_files() -> None:
-    from benchmarks.results_pages import ROBOT_AGENTS, robot_files, robot_table
+    from benchmarks.results_pages import (
+        ROBOT_AGENTS,
+        ROBOT_CLEARANCES,
+        ROBOT_TRAINED,
+        robot_files,
+        robot_table,
+    )
 
     table = RESULTS / "robot" / "table.md"
     assert table.exists() and table.read_text() == robot_table(), (
         f"{table} is stale: run python -m benchmarks.results_pages"
     )
-    pairs = [robot_files(a, "panda") for a in ROBOT_AGENTS]
-    assert any(f.exists() for pair in pairs for f in pair), "the robot page has no file"
-    for free, arm in pairs:  # the current physics; the arm's files name its settings
-        for f, robot in ((free, None), (arm, "panda")):
-            if f.exists():
-                doc = json.loads(f.read_text())
-                assert doc.get("physics_version") == PHYSICS_VERSION, f
-                assert doc["dataset"] == "test" and doc.get("robot") == robot, f
-                assert ("arm" in doc) == (robot is not None), f
+    pairs = [
+        (*robot_files(a, "panda", suffix), suffix)
+        for a in ROBOT_AGENTS
+        for _, suffix in ROBOT_CLEARANCES
+    ]
+    assert any(f.exists() for pair in pairs for f in pair[:2]), "the robot page has no file"
+    trained = [
+        (f, "panda" if "_panda_" in f.name else None, f.stem.split("test64")[1])
+        for _, name in ROBOT_TRAINED
+        for f in RESULTS.glob(f"robot/{name}_s*_*_test64*.json")
+    ]
+    checks = [(f, r, sfx) for free, arm, sfx in pairs for f, r in ((free, None), (arm, "panda"))]
+    for f, robot, suffix in checks + trained:  # the current physics; the arm names its settings
+        if f.exists():
+            doc = json.loads(f.read_text())
+            assert doc.get("physics_version") == PHYSICS_VERSION, f
+            split = "test" if suffix == "" else "datasets/test64_c025"
+            assert doc["dataset"] == split and doc.get("robot") == robot, f
+            assert ("arm" in doc) == (robot is not None), f
