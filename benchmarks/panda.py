@@ -43,6 +43,13 @@ def _task(clearance: float) -> TaskConfig:
     return replace(TaskConfig(), physics=physics_for(clearance))
 
 
+def _held(assets: list) -> list:
+    """The modules whose pegs the Panda holds (it refuses some by name)."""
+    from sim.robots.panda.scene import refusal
+
+    return [a for a in assets if refusal(a) is None]
+
+
 def _settings(controller: str):
     from sim.robots.panda.model import ArmSettings
 
@@ -52,7 +59,7 @@ def _settings(controller: str):
 def tracking(dataset: str, modules: int, controller: str = "impedance") -> dict:
     from sim.robots.panda.sim import PandaSim
 
-    assets = load_dataset(dataset_root(dataset))[:modules]
+    assets = _held(load_dataset(dataset_root(dataset)))[:modules]
     rows = {}
     for axis in range(6):
         sim = PandaSim(assets, _task(assets[0].clearance), nthread=1,

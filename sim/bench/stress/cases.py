@@ -152,6 +152,7 @@ class HoleGeometry:
     vertices: np.ndarray  # (p, 3) every peg vertex (peg frame)
     com: np.ndarray  # (3,) the peg's centre of mass (peg frame)
     clearance: float
+    footprint: float = math.inf  # the module's half-width in x and y (module frame), m
 
     @classmethod
     def of(cls, asset: ModuleAsset, most: int) -> HoleGeometry:
@@ -173,6 +174,7 @@ class HoleGeometry:
             asset.peg.vertices,
             asset.peg_com,
             c,
+            max((float(np.abs(p.vertices[:, :2]).max()) for p in asset.pieces), default=math.inf),
         )
 
     def direction(self, angle: float) -> np.ndarray:

@@ -52,7 +52,11 @@ def run_figures(
             coarse = last[:: max(1, round(0.01 / h))]
             path = float(np.linalg.norm(np.diff(coarse, axis=0), axis=1).sum())
             wobble_motion = path - float(np.linalg.norm(coarse[-1] - coarse[0]))
-            through = ((beyond[i] > 0) & (pos[i, :, 2] < -geo.clearance)) | (
+            # through a wall: beyond the hole's sides and below the surface, inside the
+            # module's footprint (a peg that climbed out of its hole and fell past the
+            # plate's edge went through nothing); through the floor: below it
+            over = (np.abs(pos[i, :, :2]) <= geo.footprint).all(axis=-1)
+            through = ((beyond[i] > 0) & (pos[i, :, 2] < -geo.clearance) & over) | (
                 below[i] > cfg.floor_pass
             )
             rec |= {
@@ -64,6 +68,7 @@ def run_figures(
                 "wobble_motion": wobble_motion,
                 "turning": float(np.linalg.norm(ang[i, -w:], axis=1).mean()),
                 "passed_through": bool(through.any()),
+                "left_hole": bool(((beyond[i] > 0) & (pos[i, :, 2] > 0)).any()),
                 "twist": bool(r.info.get("twist", False)),
                 "double": bool(r.info.get("double", False)),
             }
@@ -127,6 +132,7 @@ def summarize(records: list[dict], clearance: float) -> dict:
         "pushes": len(pushes),
         "impacts": len(impacts),
         "passed_through": sum(r["passed_through"] for r in hits),
+        "left_hole": sum(r.get("left_hole", False) for r in pushes),
         "penetration_worst": float(pen.max()) if len(pen) else float("nan"),
         "penetration_p99": _pct(pen, 99),
         "push_penetration_worst": max((r["penetration"] for r in pushes), default=float("nan")),
@@ -194,6 +200,7 @@ def targets(summary: dict) -> dict[str, bool]:
 
 _ROWS = (
     ("pass-throughs", "passed_through", None),
+    ("pushes that climbed out of the hole", "left_hole", None),
     ("transient penetration, worst", "penetration_worst", "mm"),
     ("transient penetration, p99", "penetration_p99", "mm"),
     ("  pushes: worst / p99", ("push_penetration_worst", "push_penetration_p99"), "mm"),
