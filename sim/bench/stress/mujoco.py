@@ -62,12 +62,22 @@ def module_model(
     return spec.compile()
 
 
-def _variant(base: mujoco.MjModel, name: str) -> mujoco.MjModel:
+def _actuators_off(m: mujoco.MjModel) -> None:
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+
+
+def model_variant(
+    base: mujoco.MjModel,
+    name: str,
+    free: Callable[[mujoco.MjModel], None] = _actuators_off,
+) -> mujoco.MjModel:
+    """A run's model (cases.Run.variant): `base` itself, a copy whose peg has the sliding
+    friction of `mu=X`, or (`free`) a copy that `free` lets go of the peg in."""
     if name == "base":
         return base
     m = copy.copy(base)
     if name == "free":
-        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+        free(m)
     elif name.startswith("mu="):
         peg = m.body("peg")
         m.geom_friction[peg.geomadr[0] : peg.geomadr[0] + peg.geomnum[0], 0] = float(name[3:])
@@ -101,7 +111,7 @@ def run_module(
         groups.setdefault((r.variant, round(r.duration / h)), []).append(r)
     datas = [mujoco.MjData(model) for _ in range(nthread)]
     for (variant, nstep), group in groups.items():
-        m = _variant(model, variant)
+        m = model_variant(model, variant)
         state0 = np.empty((len(group), nstate))
         ctrl = np.empty((len(group), nstep, model.nu))
         times = np.arange(nstep) * h

@@ -15,7 +15,6 @@ actuators off: an arm cannot let go of its peg mid-air.
 
 from __future__ import annotations
 
-import copy
 import os
 from collections.abc import Callable
 
@@ -26,7 +25,7 @@ from mujoco import rollout
 from sim.assets.loading import ModuleAsset
 from sim.bench.stress.cases import Run, StressConfig, module_runs, press_as_force
 from sim.bench.stress.figures import run_figures
-from sim.bench.stress.mujoco import add_contact_sensor
+from sim.bench.stress.mujoco import add_contact_sensor, model_variant
 from sim.robots.panda.kinematics import carry, peg_jacobian, reach
 from sim.robots.panda.model import ArmSettings
 from sim.robots.panda.scene import SENSOR_DIMS, Mount, build_arm_spec
@@ -44,19 +43,10 @@ def arm_model(asset: ModuleAsset, physics: PhysicsConfig, settings: ArmSettings)
     return spec.compile()
 
 
-def _variant(base: mujoco.MjModel, name: str) -> mujoco.MjModel:
-    if name == "base":
-        return base
-    m = copy.copy(base)
-    if name == "free":  # the twist actuators off; gravity compensation and posture stay
-        m.actuator_gainprm[:, 0] = 0.0
-        m.actuator_biasprm[:, 2] = 0.0
-    elif name.startswith("mu="):
-        peg = m.body("peg")
-        m.geom_friction[peg.geomadr[0] : peg.geomadr[0] + peg.geomnum[0], 0] = float(name[3:])
-    else:
-        raise ValueError(f"unknown model variant {name!r}")
-    return m
+def _twist_off(m: mujoco.MjModel) -> None:
+    """The `free` runs: the twist actuators off; gravity compensation and posture stay."""
+    m.actuator_gainprm[:, 0] = 0.0
+    m.actuator_biasprm[:, 2] = 0.0
 
 
 def _start_state(
@@ -110,7 +100,7 @@ def run_module(
         groups.setdefault((r.variant, round(r.duration / h)), []).append(r)
     datas = [mujoco.MjData(model) for _ in range(nthread)]
     for (variant, nstep), group in groups.items():
-        m = _variant(model, variant)
+        m = model_variant(model, variant, free=_twist_off)
         starts = [_start_state(m, d, aligned, r) for r in group]
         skipped += sum(s is None for s in starts)
         group = [r for r, s in zip(group, starts, strict=True) if s is not None]
