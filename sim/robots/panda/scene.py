@@ -43,6 +43,9 @@ GRASP_YAW = -0.765
 over the hole, the arm then has joint 7 at the middle of its range (HOME). `grasp` turns it by
 half each hole's yaw, so that the seated peg and the entrance's orientation sit either side of
 joint 7's middle."""
+WRIST_REACH = math.radians(140.0)
+"""The furthest joint 7 is asked to turn from the middle of its range (166 degrees) by a grasp
+turned to spare the fingers, rad: a margin for the rest of the turn and its limit's 0.2 rad."""
 SENSORS = ("peg_pos", "peg_quat", "peg_linvel", "peg_angvel", "wrist_force", "wrist_torque")
 SENSOR_DIMS = (3, 4, 3, 3, 3, 3)
 
@@ -106,15 +109,23 @@ def grasp(asset: ModuleAsset, mount: Mount) -> tuple[float, float]:
     passes through it. The grip: `mount.max_grip`, at most half of
     what stays out of the hole, and no deeper than keeps the fingertips `finger_clearance`
     above the surface of a seated peg in a tilted hole; where the tilt asks for less than
-    that, the turn moves (up to 90 degrees, the least that does) until the fingers straddle
-    the tilt's axis. ValueError (naming the module) where no turn gives `mount.min_grip`."""
+    that, the turn moves (up to 90 degrees, the least that does, and never so far that joint 7
+    would turn more than WRIST_REACH from its middle at the seat or the entrance) until the
+    fingers straddle the tilt's axis. ValueError (naming the module) where no turn gives
+    `mount.min_grip`."""
     r = asset.bottom[:3, :3]
-    centre = GRASP_YAW - 0.5 * math.atan2(r[1, 0], r[0, 0])
+    hole_yaw = math.atan2(r[1, 0], r[0, 0])
+    centre = GRASP_YAW - 0.5 * hole_yaw
+    # joint 7 turns from its middle by about (peg yaw - hole yaw / 2 + offset): both the seat
+    # and the entrance's orientation keep within WRIST_REACH of it
+    most = math.degrees(WRIST_REACH - 0.5 * abs(hole_yaw))
     h = float(asset.peg.vertices[:, 2].max())
     want = min(mount.max_grip, 0.5 * (h + float(asset.bottom[2, 3])))
     width = min(grasp_width(asset) + 0.002, MAX_OPENING)
     best = (-np.inf, centre)
     for off in sorted(np.radians(np.arange(-90, 91, 5)), key=abs):
+        if abs(math.degrees(off)) > most:
+            continue
         yaw = centre + off
         g = min(want, _grip_bound(asset, width, yaw, mount.finger_clearance))
         if g >= want - 1e-9:
