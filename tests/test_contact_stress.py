@@ -124,3 +124,43 @@ def test_contact_table_puts_runs_side_by_side(project) -> None:
     friction = next(line for line in lines if line.startswith("| sliding friction"))
     assert friction.endswith("| – |") and friction.split("|")[2].strip()[0].isdigit()
     assert "| target: no pass-through | met | met |" in lines
+
+
+def test_a_pass_through_is_a_peg_inside_the_module() -> None:
+    """The figures count a peg beyond the hole's sides below the surface, inside the module's
+    footprint, or below the floor inside the hole, as passed through; a peg that climbed out
+    of its hole and left over the plate's edge (below the surface's level, and below the
+    far reach of a tilted floor's plane) as having left the hole, not as passed through."""
+    import numpy as np
+
+    from sim.bench.stress.cases import Run
+    from sim.bench.stress.figures import run_figures
+
+    asset = modules()[0]
+    geo = HoleGeometry.of(asset, 4)
+    axis, down = geo.rot[:, 2], -geo.rot[:, 2]
+    side = geo.direction(float(geo.faces[0]))
+    start = geo.pos + 0.002 * axis
+    n = 200
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    edge = np.array([geo.footprint + 0.05, 0.0, 0.0])
+    paths = {
+        "into the plate": start + t * 0.06 * side + t * 0.002 * down,  # beyond, below: inside
+        "through the floor": start + t * 0.01 * down,
+        # up out of the hole, over the surface past the plate's edge, then below its level
+        "out and over the edge": np.where(
+            t < 0.5, start + t * 0.12 * axis, edge + np.where(t < 0.75, 0.01, -0.02) * [0, 0, 1]
+        ),
+    }
+    runs = [Run("push", k, "base", np.zeros(7), np.zeros(6), lambda x: x, 1.0) for k in paths]
+    pos = np.stack(list(paths.values()))
+    quat = np.tile([1.0, 0, 0, 0], (3, n, 1))
+    zeros = np.zeros((3, n, 3))
+    recs = run_figures(runs, pos, quat, zeros, zeros, np.zeros((3, n, 2)), geo,
+                       StressConfig(), 0.005, 1.0)  # fmt: skip
+    got = {r["label"]: (r["passed_through"], r["left_hole"]) for r in recs}
+    assert got == {
+        "into the plate": (True, False),
+        "through the floor": (True, False),
+        "out and over the edge": (False, True),
+    }, got

@@ -53,11 +53,12 @@ def run_figures(
             path = float(np.linalg.norm(np.diff(coarse, axis=0), axis=1).sum())
             wobble_motion = path - float(np.linalg.norm(coarse[-1] - coarse[0]))
             # through a wall: beyond the hole's sides and below the surface, inside the
-            # module's footprint (a peg that climbed out of its hole and fell past the
-            # plate's edge went through nothing); through the floor: below it
+            # module's footprint; through the floor: below it, inside the hole's sides (a peg
+            # that climbed out of its hole and left over the plate's edge, or lies beyond the
+            # far reach of the tilted floor's plane, went through nothing)
             over = (np.abs(pos[i, :, :2]) <= geo.footprint).all(axis=-1)
             through = ((beyond[i] > 0) & (pos[i, :, 2] < -geo.clearance) & over) | (
-                below[i] > cfg.floor_pass
+                (below[i] > cfg.floor_pass) & (beyond[i] <= 0)
             )
             rec |= {
                 "penetration": float(pen[i].max()),
