@@ -46,6 +46,14 @@ class PPOConfig:
     obs_symlog_scale: float | None = None
     """If set, the networks see symlog(k obs) with k this (then normalised): 1000 reads
     positions in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
+    exploration: str = "white"
+    """The actor's noise when acting: "white", a fresh Gaussian draw every step (SAC's own);
+    "pink", the same std but noise correlated over time with a 1/f spectrum, per env and
+    action dimension (rl/exploration.py), so a hovering policy still wanders. Training
+    batches always use white draws."""
+    noise_period: int = 500
+    """With exploration "pink": control steps of one noise sequence (its longest correlation;
+    500: an episode's step limit)."""
     reward_scale: float = 1.0
     """Rewards are multiplied by this before learning (logged returns are not)."""
     desired_kl: float | None = None
@@ -137,6 +145,14 @@ class SACConfig:
     """Learn alpha so the policy's entropy tracks `target_entropy`."""
     target_entropy: float | None = None
     """Entropy target when learning alpha (None: -act_dim)."""
+    exploration: str = "white"
+    """The actor's noise when acting: "white", a fresh Gaussian draw every step (SAC's own);
+    "pink", the same std but noise correlated over time with a 1/f spectrum, per env and
+    action dimension (rl/exploration.py), so a hovering policy still wanders. Training
+    batches always use white draws."""
+    noise_period: int = 500
+    """With exploration "pink": control steps of one noise sequence (its longest correlation;
+    500: an episode's step limit)."""
     reward_scale: float = 1.0
     """Rewards are multiplied by this before learning (logged returns are not)."""
     n_step: int = 1
@@ -171,6 +187,8 @@ class SACConfig:
             "entropy_coef > 0": self.entropy_coef > 0,
             "steps_per_iteration >= 1": self.steps_per_iteration >= 1,
             "n_step >= 1": self.n_step >= 1,
+            "exploration in ('white', 'pink')": self.exploration in ("white", "pink"),
+            "noise_period >= 2": self.noise_period >= 2,
             "max_grad_norm is None or > 0": self.max_grad_norm is None or self.max_grad_norm > 0,
             "obs_symlog_scale is None or > 0": (
                 self.obs_symlog_scale is None or self.obs_symlog_scale > 0

@@ -185,13 +185,15 @@ class SquashedGaussianActor(nn.Module):
         self.net = mlp(obs_dim, hidden, 2 * act_dim, activation, layer_norm)
 
     def forward(
-        self, obs: torch.Tensor, deterministic: bool = False
+        self, obs: torch.Tensor, deterministic: bool = False, noise: torch.Tensor | None = None
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """obs (B, obs_dim) -> action (B, act_dim) in (-1, 1), log pi(a | s) (B,)."""
+        """obs (B, obs_dim) -> action (B, act_dim) in (-1, 1), log pi(a | s) (B,). noise:
+        the standard normal draw (B, act_dim) to use instead of a fresh one."""
         mean, log_std = self.net(self.encode(obs)).chunk(2, dim=-1)
         log_std = log_std.clamp(-5.0, 2.0)
         std = log_std.exp()
-        u = mean if deterministic else mean + std * torch.randn_like(mean)
+        eps = torch.randn_like(mean) if noise is None else noise
+        u = mean if deterministic else mean + std * eps
         logp = ActorCritic.log_prob(mean, std, u)
         logp = logp - (2.0 * (math.log(2.0) - u - nn.functional.softplus(-2.0 * u))).sum(-1)
         return torch.tanh(u), logp

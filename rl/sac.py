@@ -25,6 +25,7 @@ import numpy as np
 import torch
 
 from rl.configs import SACConfig
+from rl.exploration import ColoredNoise
 from rl.nets import QNetwork, SquashedGaussianActor, check_finite
 from rl.nstep import NStepWindow
 
@@ -177,6 +178,11 @@ class SAC:
             cfg.buffer_size, obs_dim, act_dim, self.device, discount=cfg.n_step > 1
         )
         self.nstep = NStepWindow(cfg.n_step, cfg.gamma, num_envs) if cfg.n_step > 1 else None
+        self.noise: ColoredNoise | None = None
+        if cfg.exploration == "pink":
+            # seeded from torch's generator, which the run seeds, so the seed fixes it too
+            seed = int(torch.randint(0, 2**31 - 1, ()).item())
+            self.noise = ColoredNoise(num_envs, act_dim, cfg.noise_period, 1.0, seed)
         self.teacher: Callable[[np.ndarray], np.ndarray] | None = None
         self._teacher_action: torch.Tensor | None = None
         self.steps_per_iteration = cfg.steps_per_iteration
@@ -232,7 +238,8 @@ class SAC:
         o = self._t(obs)
         teach = self._t(self.teacher(obs)) if self.teacher is not None else None
         if self.env_steps >= self.cfg.warmup_steps:
-            a, _ = self.actor(o)
+            eps = None if self.noise is None else self._t(self.noise.sample())
+            a, _ = self.actor(o, noise=eps)
         elif teach is None:
             a = torch.rand(len(o), self.act_dim, device=self.device) * 2.0 - 1.0
         else:
@@ -397,12 +404,15 @@ class SAC:
             **({} if self.nstep is None else
                {f"nstep/{k}": v for k, v in self.nstep.state().items()}),
         }  # fmt: skip
-        return tensors, {
+        values = {
             "buffer": counters,
             "env_steps": self.env_steps,
             "grad_steps": self.grad_steps,
             "credit": self._credit,
         }
+        if self.noise is not None:
+            tensors["noise/buffer"], values["noise"] = self.noise.state()
+        return tensors, values
 
     def load_extra_state(self, tensors: dict[str, torch.Tensor], values: dict[str, Any]) -> None:
         with torch.no_grad():
@@ -414,3 +424,5 @@ class SAC:
             self.nstep.load_state(window)
         self.env_steps, self.grad_steps = values["env_steps"], values["grad_steps"]
         self._credit = values["credit"]
+        if self.noise is not None:
+            self.noise.load_state(tensors["noise/buffer"], values["noise"])

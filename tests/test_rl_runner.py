@@ -34,6 +34,7 @@ SAC_SETUP = Setup(
     4, 256, 64,
 )  # fmt: skip
 SAC_N3_SETUP = Setup(replace(SAC_SETUP.config, n_step=3), 4, 256, 64)
+SAC_PINK_SETUP = Setup(replace(SAC_SETUP.config, exploration="pink", noise_period=12), 4, 256, 64)
 
 
 class Interrupt:
@@ -81,11 +82,13 @@ def _train(algo, env, setup, out, **kw):
 @pytest.mark.parametrize(
     ("algo", "env_cls", "stack"),
     [("ppo", StatefulToyEnv, 1), ("ppo", ToyEnv, 2), ("sac", StatefulToyEnv, 2),
-     ("sac", ToyEnv, 1), ("sac-n3", ToyEnv, 1)],
+     ("sac", ToyEnv, 1), ("sac-n3", ToyEnv, 1), ("sac-pink", ToyEnv, 1)],
 )  # fmt: skip
 def test_interrupted_and_resumed_run_matches_uninterrupted(algo, env_cls, stack, tmp_path):
-    """... also with n-step returns, whose open steps the checkpoint must carry."""
-    setup = {"ppo": PPO_SETUP, "sac": SAC_SETUP, "sac-n3": SAC_N3_SETUP}[algo]
+    """... also with n-step returns, whose open steps the checkpoint must carry, and with
+    pink exploration noise, whose stream (cut mid-sequence: period 12) it must carry."""
+    setup = {"ppo": PPO_SETUP, "sac": SAC_SETUP, "sac-n3": SAC_N3_SETUP,
+             "sac-pink": SAC_PINK_SETUP}[algo]  # fmt: skip
     algo = algo.split("-")[0]
     full = _train(algo, env_cls(4), setup, tmp_path / "full", stack=stack, steps=256)
     assert full["status"] == "done" and full["iterations"] == 8
