@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -253,6 +253,72 @@ def robot_table() -> str:
     return "\n".join(rows) + "\n"
 
 
+TAKEOFF_STALL_STEPS = 1_000_000
+"""The take-off page's stall: no training success >= 10 % by this many env steps."""
+
+
+def takeoff_table() -> str:
+    """Take-off and stalls of the teacher-free candidates (docs/results/takeoff/table.md),
+    from the recipe's filed Table III runs and the run folders filed under
+    docs/results/runs/takeoff/ (config.json, metrics.csv): one row a run, then each
+    candidate's stall rate (benchmarks/takeoff.py)."""
+    from benchmarks.takeoff import env_labels, stall_rates, takeoff
+    from rl.report_load import load_run
+
+    # a candidate: the run's variant (algorithm, --set fields) and the env options that set
+    # it apart (--near-starts, ...)
+    recipe = [r for r in filed_runs("table3") if "/sac-symlog-n3-gs05-g098-s" in r]
+    paths = [str(ROOT / r) for r in (*recipe, *filed_runs("takeoff"))]
+    labels = env_labels(paths) if paths else []
+    rows = [
+        takeoff(replace(load_run(p), variant=_candidate(p, extra)), 0.10, TAKEOFF_STALL_STEPS)
+        for p, extra in zip(paths, labels, strict=True)
+    ]
+    rows.sort(key=lambda r: (r.variant, r.seed))
+    out = [
+        f"Take-off: the first training success >= 10 % (over the last 100 or more finished "
+        f"episodes); a stall: none by {TAKEOFF_STALL_STEPS / 1e6:g} M env steps.\n",
+        "| candidate | seed | take-off, env steps | minutes | env steps run | training "
+        "success at the end |\n" + "|---" * 6 + "|",
+    ]
+    for r in rows:
+        at = f"{r.steps / 1e6:.2f} M" if r.steps is not None else r.verdict
+        mins = f"{r.minutes:.1f}" if r.minutes is not None else "–"
+        out.append(
+            f"| {r.variant} | {r.seed} | {at} | {mins} | {r.reached_steps / 1e6:.2f} M | "
+            f"{100 * r.last_success:.1f} % |"
+        )
+    out.append("\n| candidate | stalled | seeds |\n|---|---|---|")
+    for variant, (stalled, decided) in stall_rates(rows).items():
+        seeds = ", ".join(str(r.seed) for r in rows if r.variant == variant)
+        out.append(f"| {variant} | {stalled} of {decided} | {seeds} |")
+    return "\n".join(out) + "\n"
+
+
+def _candidate(path: str, extra: str) -> str:
+    """ "the recipe" (the README's teacher-free SAC, benchmarks/table3.py) and the run's other
+    --set fields and env options, or its variant where it is not the recipe's."""
+    import json
+
+    from assetgen.core.overrides import parse_overrides
+    from benchmarks.table3 import ROWS
+    from rl.configs import SACConfig
+    from rl.report_load import variant_name
+
+    meta = json.loads((Path(path) / "config.json").read_text())
+    over = meta.get("overrides") or {}
+    recipe = parse_overrides(SACConfig, list(ROWS["sac-symlog-n3-gs05-g098"].overrides))
+    if (
+        meta["algo"] != "sac"
+        or meta.get("demos")
+        or any(over.get(k) != v for k, v in recipe.items())
+    ):
+        name = variant_name(meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), over)
+        return f"{name} {extra}".strip()
+    rest = [f"{k}={v}" for k, v in sorted(over.items()) if k not in recipe]
+    return ", ".join(["the recipe", *rest, *([extra] if extra else [])])
+
+
 ASSEMBLY: tuple[tuple[str, str], ...] = (
     ("scripted expert", "docs/results/assembly/scripted_assembly_test.json"),
     ("`sac-direct-bc`, zero-shot", "docs/results/assembly/sac-direct-bc_assembly_test.json"),
@@ -362,7 +428,12 @@ def main(argv: list[str] | None = None) -> int:
         if page.readme:
             replace_table(ROOT / "README.md", page_table(page, compact=True))
             print(f"wrote its table into README.md ({TABLE_BEGIN} … {TABLE_END})")
-    pages = (("referee", referee_table), ("assembly", assembly_table), ("robot", robot_table))
+    pages = (
+        ("referee", referee_table),
+        ("assembly", assembly_table),
+        ("robot", robot_table),
+        ("takeoff", takeoff_table),
+    )
     for name, make in pages:
         path = RESULTS / name / "table.md"
         if args.check:

@@ -4,9 +4,10 @@
                                  [--stall-steps 1000000] [--json out.json]
 
 A run takes off at the first logged iteration whose training success (over the runner's
-window of the last finished episodes, at least 100) reaches --threshold; it stalls when it
-has not taken off by --stall-steps env steps. Counted in env steps, not minutes, so that a
-recipe bounded by wall-clock time is judged the same on a slower machine. A run that ended
+window of the last finished episodes, at least 100, all of them ended after the warm-up)
+reaches --threshold; it stalls when it has not taken off by --stall-steps env steps. Counted
+in env steps, not minutes, so that a recipe bounded by wall-clock time is judged the same on
+a slower machine. A run that ended
 before --stall-steps without taking off is "unfinished", neither a stall nor a take-off.
 
 Prints one row per run (its variant, seed, env steps and minutes to take-off, its last
@@ -16,6 +17,7 @@ training success) and, per variant, the stall rate over the runs that decided.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 from dataclasses import dataclass, replace
@@ -52,9 +54,25 @@ def env_labels(paths: list[str]) -> list[str]:
     return [" ".join(f"{k}={o[k]}" for k in varying if k in o) for o in opts]
 
 
+def policy_rows(path: Path) -> np.ndarray:
+    """(T,) bool: the logged iterations whose success window holds only episodes that ended
+    after the warm-up (the uniform-random or teacher's actions of SAC's first warmup_steps),
+    a full window of them (the runner's: max(100, envs) episodes). Early windows of a few
+    lucky random episodes near the hole are not a take-off."""
+    meta = json.loads((path / "config.json").read_text())
+    warmup = int(meta.get("config", {}).get("warmup_steps", 0))
+    window = max(100, int(meta.get("num_envs", 1)))
+    with open(path / "metrics.csv", newline="") as f:
+        rows = [(int(float(r["env_steps"])), int(float(r["episodes"]))) for r in csv.DictReader(f)]
+    steps = np.array([r[0] for r in rows], dtype=np.int64)
+    episodes = np.array([r[1] for r in rows], dtype=np.int64)
+    before = episodes[steps <= warmup]
+    return episodes >= (before[-1] if len(before) else 0) + window
+
+
 def takeoff(run: Run, threshold: float, stall_steps: int) -> Takeoff:
     rate = np.nan_to_num(run.success_rate, nan=0.0)
-    hit = np.flatnonzero(rate >= threshold)
+    hit = np.flatnonzero((rate >= threshold) & policy_rows(Path(run.path)))
     reached = int(run.env_steps[-1]) if len(run.env_steps) else 0
     last = float(rate[-1]) if len(rate) else math.nan
     steps = minutes = None
@@ -81,7 +99,8 @@ def stall_rates(rows: list[Takeoff]) -> dict[str, tuple[int, int]]:
     return out
 
 
-def _relabel(run: Run, extra: str) -> Run:
+def relabel(run: Run, extra: str) -> Run:
+    """The run, its variant followed by `extra` (its env_labels word)."""
     return replace(run, variant=f"{run.variant} {extra}".strip())
 
 
@@ -97,7 +116,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.stall_steps < 1:
         p.error(f"--stall-steps {args.stall_steps}: give a positive number of env steps")
     rows = [
-        takeoff(_relabel(load_run(r), extra), args.threshold, args.stall_steps)
+        takeoff(relabel(load_run(r), extra), args.threshold, args.stall_steps)
         for r, extra in zip(args.runs, env_labels(args.runs), strict=True)
     ]
     print(f"take-off: training success >= {args.threshold:.0%} by {args.stall_steps:,} env steps")

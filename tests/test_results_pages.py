@@ -106,3 +106,24 @@ def test_robot_page_is_generated_from_its_files() -> None:
             split = "test" if suffix == "" else "datasets/test64_c025"
             assert doc["dataset"] == split and doc.get("robot") == robot, f
             assert ("arm" in doc) == (robot is not None), f
+
+
+def test_takeoff_page_is_generated_from_its_runs() -> None:
+    from benchmarks.results_pages import filed_runs, takeoff_table
+
+    table = RESULTS / "takeoff" / "table.md"
+    assert table.exists() and table.read_text() == takeoff_table(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+    runs = filed_runs("takeoff")
+    assert runs, "the take-off page has no run"
+    assert "| the recipe | 0 | 0.09 M |" in table.read_text()  # a Table III seed's take-off
+    from dataclasses import asdict
+
+    from assetgen.core.mujoco_config import physics_for
+
+    physics = json.loads(json.dumps(asdict(physics_for(0.001))))
+    for run in runs:  # the floating peg on the current physics (1 mm, the train split's)
+        meta = json.loads((ROOT / run / "config.json").read_text())
+        assert meta["physics"] == physics, f"{run}: trained on other physics; train it again"
+        assert "robot" not in meta["env_options"], run

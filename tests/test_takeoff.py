@@ -3,6 +3,7 @@ whether it stalled, counted in env steps, from run folders as the runner writes 
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from pathlib import Path
@@ -11,9 +12,26 @@ import pytest
 
 from benchmarks.takeoff import env_labels, main, stall_rates, takeoff
 from rl.report_load import load_run
-from tests.test_rl_report import fake_run
+from tests.test_rl_report import fake_run as report_run
 
 NAN = math.nan
+
+
+def fake_run(path: Path, algo, stack, seed, steps, rates, episodes=None, warmup=0) -> Path:
+    """rl.report's fake run with the runner's episodes column (default: 100 more finished
+    episodes every row) and SAC's warm-up in its config."""
+    report_run(path, algo, stack, seed, steps, rates)
+    episodes = episodes or [100 * (i + 1) for i in range(len(steps))]
+    rows = list(csv.DictReader(open(path / "metrics.csv")))
+    with open(path / "metrics.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for row, n in zip(rows, episodes, strict=True):
+            w.writerow(row | {"episodes": n})
+    meta = json.loads((path / "config.json").read_text())
+    meta["config"] = {"warmup_steps": warmup}
+    (path / "config.json").write_text(json.dumps(meta))
+    return path
 
 
 def test_take_off_is_the_first_row_at_the_threshold_within_the_stall_steps(tmp_path: Path) -> None:
@@ -34,6 +52,16 @@ def test_take_off_is_the_first_row_at_the_threshold_within_the_stall_steps(tmp_p
 
     rows = [takeoff(r, 0.10, 300_000) for r in (early, late, never, short)]
     assert stall_rates(rows) == {"SAC": (2, 3)}
+
+
+def test_lucky_windows_of_the_warm_up_are_not_a_take_off(tmp_path: Path) -> None:
+    steps = [10_000, 20_000, 30_000, 40_000, 50_000, 60_000]
+    # a half-full window of random episodes, then a full one still holding warm-up
+    # episodes (warm-up: 20 k env steps, 150 episodes by then), then the policy's own
+    run = fake_run(tmp_path / "a", "sac", 1, 0, steps, [0.4, 0.2, 0.15, 0.05, 0.12, 0.2],
+                   episodes=[50, 150, 200, 249, 250, 300], warmup=20_000)  # fmt: skip
+    t = takeoff(load_run(run), 0.10, 60_000)
+    assert (t.verdict, t.steps) == ("took off", 50_000)
 
 
 def test_runs_differing_in_env_options_are_counted_apart(tmp_path: Path, capsys) -> None:
