@@ -46,14 +46,6 @@ class PPOConfig:
     obs_symlog_scale: float | None = None
     """If set, the networks see symlog(k obs) with k this (then normalised): 1000 reads
     positions in millimetres, fine near the hole and compressed far from it (rl.nets.SymlogObs)."""
-    exploration: str = "white"
-    """The actor's noise when acting: "white", a fresh Gaussian draw every step (SAC's own);
-    "pink", the same std but noise correlated over time with a 1/f spectrum, per env and
-    action dimension (rl/exploration.py), so a hovering policy still wanders. Training
-    batches always use white draws."""
-    noise_period: int = 500
-    """With exploration "pink": control steps of one noise sequence (its longest correlation;
-    500: an episode's step limit)."""
     reward_scale: float = 1.0
     """Rewards are multiplied by this before learning (logged returns are not)."""
     desired_kl: float | None = None
