@@ -72,7 +72,8 @@ def policy_rows(path: Path) -> np.ndarray:
 
 def takeoff(run: Run, threshold: float, stall_steps: int) -> Takeoff:
     rate = np.nan_to_num(run.success_rate, nan=0.0)
-    hit = np.flatnonzero((rate >= threshold) & policy_rows(Path(run.path)))
+    # a live run may have logged more rows since load_run read it
+    hit = np.flatnonzero((rate >= threshold) & policy_rows(Path(run.path))[: len(rate)])
     reached = int(run.env_steps[-1]) if len(run.env_steps) else 0
     last = float(rate[-1]) if len(rate) else math.nan
     steps = minutes = None
