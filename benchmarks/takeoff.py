@@ -20,6 +20,7 @@ import argparse
 import csv
 import json
 import math
+from collections import Counter
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -46,12 +47,16 @@ class Takeoff:
 
 def env_labels(paths: list[str]) -> list[str]:
     """Each run's env options (config.json's env_options: robot, readings, near starts, ...)
-    that not every run given shares, as "k=v" words; runs of one variant that differ in them
-    are different candidates."""
+    that differ from the value most of the runs given have, as "k=v" words; runs of one
+    variant that differ in them are different candidates."""
     opts = [json.loads((Path(p) / "config.json").read_text()).get("env_options", {}) for p in paths]
     keys = sorted({k for o in opts for k in o})
-    varying = [k for k in keys if len({json.dumps(o.get(k)) for o in opts}) > 1]
-    return [" ".join(f"{k}={o[k]}" for k in varying if k in o) for o in opts]
+    # the value most runs have is the baseline's, named in none
+    usual = {k: Counter(json.dumps(o.get(k)) for o in opts).most_common(1)[0][0] for k in keys}
+    return [
+        " ".join(f"{k}={o[k]}" for k in keys if k in o and json.dumps(o[k]) != usual[k])
+        for o in opts
+    ]
 
 
 def policy_rows(path: Path) -> np.ndarray:
