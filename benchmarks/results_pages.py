@@ -277,16 +277,15 @@ def takeoff_table() -> str:
     rows.sort(key=lambda r: (r.variant, r.seed))
     out = [
         f"Take-off: the first training success >= 10 % (over the last 100 or more finished "
-        f"episodes); a stall: none by {TAKEOFF_STALL_STEPS / 1e6:g} M env steps.\n",
+        f"episodes, all ended after the warm-up); a stall: none by "
+        f"{TAKEOFF_STALL_STEPS / 1e6:g} M env steps.\n",
         "| candidate | seed | take-off, env steps | minutes | env steps run | training "
         "success at the end |\n" + "|---" * 6 + "|",
     ]
     for r in rows:
-        at = f"{r.steps / 1e6:.2f} M" if r.steps is not None else r.verdict
-        mins = f"{r.minutes:.1f}" if r.minutes is not None else "–"
         out.append(
-            f"| {r.variant} | {r.seed} | {at} | {mins} | {r.reached_steps / 1e6:.2f} M | "
-            f"{100 * r.last_success:.1f} % |"
+            f"| {r.variant} | {r.seed} | {r.at} | {r.minutes_text} | "
+            f"{r.reached_steps / 1e6:.2f} M | {100 * r.last_success:.1f} % |"
         )
     out.append("\n| candidate | stalled | seeds |\n|---|---|---|")
     for variant, (stalled, decided) in stall_rates(rows).items():

@@ -7,8 +7,8 @@ A run takes off at the first logged iteration whose training success (over the r
 window of the last finished episodes, at least 100, all of them ended after the warm-up)
 reaches --threshold; it stalls when it has not taken off by --stall-steps env steps. Counted
 in env steps, not minutes, so that a recipe bounded by wall-clock time is judged the same on
-a slower machine. A run that ended
-before --stall-steps without taking off is "unfinished", neither a stall nor a take-off.
+a slower machine. A run that ended before --stall-steps without taking off is "unfinished",
+neither a stall nor a take-off.
 
 Prints one row per run (its variant, seed, env steps and minutes to take-off, its last
 training success) and, per variant, the stall rate over the runs that decided.
@@ -17,7 +17,6 @@ training success) and, per variant, the stall rate over the runs that decided.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 from collections import Counter
@@ -44,6 +43,15 @@ class Takeoff:
     verdict: str
     """'took off', 'stalled' (no take-off by the stall steps) or 'unfinished'."""
 
+    @property
+    def at(self) -> str:
+        """The take-off's env steps ("0.43 M"), or the verdict where there was none."""
+        return f"{self.steps / 1e6:.2f} M" if self.steps is not None else self.verdict
+
+    @property
+    def minutes_text(self) -> str:
+        return f"{self.minutes:.1f}" if self.minutes is not None else "–"
+
 
 def env_labels(paths: list[str]) -> list[str]:
     """Each run's env options (config.json's env_options: robot, readings, near starts, ...)
@@ -59,26 +67,23 @@ def env_labels(paths: list[str]) -> list[str]:
     ]
 
 
-def policy_rows(path: Path) -> np.ndarray:
+def policy_rows(run: Run) -> np.ndarray:
     """(T,) bool: the logged iterations whose success window holds only episodes that ended
     after the warm-up (the uniform-random or teacher's actions of SAC's first warmup_steps),
     a full window of them (the runner's: max(100, envs) episodes). Early windows of a few
     lucky random episodes near the hole are not a take-off."""
-    meta = json.loads((path / "config.json").read_text())
+    if len(run.episodes) != len(run.env_steps):
+        raise ValueError(f"{run.path}/metrics.csv has no episodes column (rl/metrics.py)")
+    meta = json.loads((Path(run.path) / "config.json").read_text())
     warmup = int(meta.get("config", {}).get("warmup_steps", 0))
     window = max(100, int(meta.get("num_envs", 1)))
-    with open(path / "metrics.csv", newline="") as f:
-        rows = [(int(float(r["env_steps"])), int(float(r["episodes"]))) for r in csv.DictReader(f)]
-    steps = np.array([r[0] for r in rows], dtype=np.int64)
-    episodes = np.array([r[1] for r in rows], dtype=np.int64)
-    before = episodes[steps <= warmup]
-    return episodes >= (before[-1] if len(before) else 0) + window
+    before = run.episodes[run.env_steps <= warmup]
+    return run.episodes >= (before[-1] if len(before) else 0) + window
 
 
 def takeoff(run: Run, threshold: float, stall_steps: int) -> Takeoff:
     rate = np.nan_to_num(run.success_rate, nan=0.0)
-    # a live run may have logged more rows since load_run read it
-    hit = np.flatnonzero((rate >= threshold) & policy_rows(Path(run.path))[: len(rate)])
+    hit = np.flatnonzero((rate >= threshold) & policy_rows(run))
     reached = int(run.env_steps[-1]) if len(run.env_steps) else 0
     last = float(rate[-1]) if len(rate) else math.nan
     steps = minutes = None
@@ -128,11 +133,9 @@ def main(argv: list[str] | None = None) -> None:
     print(f"take-off: training success >= {args.threshold:.0%} by {args.stall_steps:,} env steps")
     print(f"{'run':<40} {'seed':>4} {'take-off':>10} {'minutes':>8} {'reached':>9} {'last':>6}")
     for r in rows:
-        at = f"{r.steps / 1e6:.2f} M" if r.steps is not None else r.verdict
-        mins = f"{r.minutes:.1f}" if r.minutes is not None else "–"
         name = Path(r.path).name
         print(
-            f"{name:<40} {r.seed:>4} {at:>10} {mins:>8} "
+            f"{name:<40} {r.seed:>4} {r.at:>10} {r.minutes_text:>8} "
             f"{r.reached_steps / 1e6:>7.2f} M {r.last_success:>6.1%}"
         )
     rates = stall_rates(rows)

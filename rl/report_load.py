@@ -59,6 +59,9 @@ class Run:
     wall_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """(T,) wall-clock seconds of training at each logged iteration (a resumed run goes on
     from its checkpoint's); empty for a metrics file without the column."""
+    episodes: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """(T,) training episodes finished by each logged iteration; empty for a metrics file
+    without the column."""
 
     @property
     def budget(self) -> tuple[int, float]:
@@ -154,7 +157,7 @@ def load_eval(path: str | Path) -> EvalResult:
 
 def _read_metrics(
     path: Path,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
         cols = reader.fieldnames or []
@@ -169,7 +172,10 @@ def _read_metrics(
     probed = [i for i, r in enumerate(rows) if r.get("probe_success_rate")]
     probe = np.array([float(rows[i]["probe_success_rate"]) for i in probed])
     wall = np.array([float(r["wall_s"]) for r in rows]) if "wall_s" in cols else np.zeros(0)
-    return steps, np.array(rate), steps[probed], probe, wall
+    episodes = np.array(
+        [int(float(r["episodes"])) for r in rows] if "episodes" in cols else [], dtype=np.int64
+    )
+    return steps, np.array(rate), steps[probed], probe, wall, episodes
 
 
 def load_run(path: str | Path, label: str | None = None) -> Run:
@@ -189,7 +195,7 @@ def load_run(path: str | Path, label: str | None = None) -> Run:
     variant = variant_name(
         meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), meta.get("overrides")
     )
-    steps, rate, probe_steps, probe_rate, wall = _read_metrics(metrics)
+    steps, rate, probe_steps, probe_rate, wall, episodes = _read_metrics(metrics)
     evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
     for e in evals:
         if e.variant.removesuffix(SAMPLED) != variant:
@@ -206,7 +212,7 @@ def load_run(path: str | Path, label: str | None = None) -> Run:
             replace(e, variant=label + (SAMPLED if e.variant.endswith(SAMPLED) else ""))
             for e in evals
         )
-    return Run(path, variant, seed, steps, rate, evals, probe_steps, probe_rate, wall)
+    return Run(path, variant, seed, steps, rate, evals, probe_steps, probe_rate, wall, episodes)
 
 
 def load_baselines(paths: list[str | Path]) -> tuple[list[EvalResult], list[Path]]:

@@ -109,6 +109,9 @@ def test_robot_page_is_generated_from_its_files() -> None:
 
 
 def test_takeoff_page_is_generated_from_its_runs() -> None:
+    from dataclasses import asdict
+
+    from assetgen.core.mujoco_config import physics_for
     from benchmarks.results_pages import filed_runs, takeoff_table
 
     table = RESULTS / "takeoff" / "table.md"
@@ -118,10 +121,6 @@ def test_takeoff_page_is_generated_from_its_runs() -> None:
     runs = filed_runs("takeoff")
     assert runs, "the take-off page has no run"
     assert "| the recipe | 0 | 0.09 M |" in table.read_text()  # a Table III seed's take-off
-    from dataclasses import asdict
-
-    from assetgen.core.mujoco_config import physics_for
-
     physics = json.loads(json.dumps(asdict(physics_for(0.001))))
     for run in runs:  # the floating peg on the current physics (1 mm, the train split's)
         meta = json.loads((ROOT / run / "config.json").read_text())
