@@ -568,7 +568,7 @@ class PegInHoleVecEnv:
             raise ValueError(f"engine = {self.engine!r}: saving the env's state is MuJoCo's only")
         friction, solref = self.sim.contact_params()
         return {
-            "shard_state": self.sim.shard_state.copy(),
+            "shard_state": self.sim.shard_state_now(),
             "friction": friction,
             "solref": solref,
             "steps": self._steps.copy(),

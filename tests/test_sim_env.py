@@ -376,6 +376,23 @@ def test_exact_resume_from_get_state(rotate: bool) -> None:
         make_env(2, cfg).set_state(state)
 
 
+def test_a_state_saved_right_after_a_reset_holds_the_new_spawn() -> None:
+    # a reset writes the per-env state only; a state saved before the next step must still
+    # carry it, or the resumed env starts its new episode where the last one ended
+    env = make_env(3, quiet(curriculum_steps=400))
+    env.reset(seed=6)
+    env.set_peg_poses(np.array([0]), env.bottom[[0]])  # on the seat: succeeds at once
+    _, _, term, _, _ = env.step(np.zeros((3, 6)))
+    assert term[0]
+    other = make_env(3, quiet(curriculum_steps=400))
+    other.reset(seed=7)
+    other.set_state(env.get_state())
+    assert np.array_equal(other.sim.state, env.sim.state)
+    acts = np.random.default_rng(1).uniform(-1, 1, (5, 3, 6))
+    for a in acts:
+        assert np.array_equal(env.step(a)[0], other.step(a)[0])
+
+
 def test_factories_for_rl() -> None:
     from sim.env import make_eval_env, make_train_env
 

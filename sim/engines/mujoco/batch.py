@@ -204,6 +204,14 @@ class BatchSim(EngineSim):
         # time is written back too: every env of a shard holds its shard's time
         self._ss_flat[self._flat] = self.state + self._offset
 
+    def shard_state_now(self) -> np.ndarray:
+        """A copy of the shard states holding every env's latest state. `set_pose` (a reset)
+        writes the per-env state only, which the shards take at the next step: a state saved
+        right after a step that reset an env must scatter it first, or a resume would put
+        that env's peg back where its last episode ended."""
+        self._scatter()
+        return self.shard_state.copy()
+
     # ------------------------------------------------------------------ state access
 
     def set_contact(self, idx: np.ndarray, friction: np.ndarray, dampratio: np.ndarray) -> None:
