@@ -267,7 +267,7 @@ def takeoff_table() -> str:
 
     # a candidate: the run's variant (algorithm, --set fields) and the env options that set
     # it apart (--near-starts, ...)
-    recipe = [r for r in filed_runs("table3") if "/sac-symlog-n3-gs05-g098-s" in r]
+    recipe = [r for r in filed_runs("table3") if "/sac-symlog-n3-gs05-g098-" in r]
     paths = [str(ROOT / r) for r in (*recipe, *filed_runs("takeoff"))]
     labels = env_labels(paths) if paths else []
     rows = [

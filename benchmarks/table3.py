@@ -61,6 +61,8 @@ class Row:
     stack: int = 1
     overrides: tuple[str, ...] = ()
     """`--set FIELD=VALUE` overrides of the preset's config (a screened candidate's)."""
+    flags: tuple[str, ...] = ()
+    """Further `assetgen train` flags: the env's training options (e.g. --inside-starts)."""
     minutes: float | None = None
     """The row's own training budget; None: the lane's --minutes (60, the paper's rows)."""
     superseded_by: str | None = None
@@ -99,13 +101,20 @@ ROWS: dict[str, Row] = {
         overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5", "gamma=0.98"),
         minutes=120.0,
     ),
+    "sac-symlog-n3-gs05-g098-inside25": Row(
+        "sac",
+        overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5", "gamma=0.98"),
+        flags=("--inside-starts", "0.25"),
+        minutes=120.0,
+    ),
 }
 """The paper's rows ("-stack": its STACK variant, the last 10 observations), then the best
 teacher-free candidates of the screening (docs/results/README.md), with their overrides and
 their two hours: SAC on symlog observations, then the same with 3-step returns, then with
 half a gradient step per env step as well (more env steps in the two hours), then with a
 discount of 0.98 as well (the return of a success is 1 whatever its time: only the discount
-rewards speed)."""
+rewards speed), then the same with a quarter of the training episodes started inside the
+hole (a reverse curriculum's first stage: it takes off on the seeds the recipe stalls on)."""
 
 
 def run_dir(runs: Path, row: str, seed: int) -> Path:
@@ -200,6 +209,7 @@ def lane(
         train += ["--stack", str(spec.stack)]
     for kv in spec.overrides:
         train += ["--set", kv]
+    train += list(spec.flags)
     # always called: a finished run returns at once (its budget is spent), a cut one goes on
     call(train + (["--resume"] if (run / "checkpoint.safetensors").exists() else []))
     todo = {name: flags for name, flags in EVALS.items() if not (run / name).exists()}

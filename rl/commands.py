@@ -105,6 +105,13 @@ TRAIN_NUMBERS = {
         "give the share of modules drawn by their failures, in (0, 1], e.g. 0.5"
     ),
     "near_starts": share("give the share of episodes that start near the hole, in (0, 1]"),
+    "inside_starts": Bound(
+        low=0.0,
+        high=1.0,
+        low_open=True,
+        high_open=True,
+        hint="give the share of episodes that start inside the hole, in (0, 1), e.g. 0.25",
+    ),
     "axis_shaping": Bound(low=0.0, hint="give a finite weight of 0 or more, e.g. 2"),
     "threads": count(),
     "probe_steps": count("give a positive number of steps"),
@@ -218,6 +225,14 @@ def add_train_parser(
         "full spawn ranges, whatever the curriculum (the rest as without it)",
     )
     p.add_argument(
+        "--inside-starts",
+        type=float,
+        metavar="SHARE",
+        help="start SHARE (in (0, 1)) of the training episodes with the peg inside its hole, "
+        "aligned, between the entrance and the seat (a reverse curriculum's first stage); "
+        "they are left out of the training columns and of the curriculum's counts",
+    )
+    p.add_argument(
         "--axis-shaping",
         type=float,
         metavar="W",
@@ -322,6 +337,9 @@ def train_main(
         near = getattr(args, "near_starts", None)
         if near is not None:
             gate["near_starts"] = near
+        inside = getattr(args, "inside_starts", None)
+        if inside is not None:
+            gate["inside_starts"] = inside
         axis = getattr(args, "axis_shaping", None)
         if axis is not None:
             gate["axis_shaping"] = axis

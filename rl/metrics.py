@@ -43,8 +43,12 @@ class EpisodeStats:
         self.total = 0
 
     def add(self, done: Any, info: dict[str, Any]) -> None:
-        """Record the episodes that ended where done (N,) is True (arrays or tensors)."""
-        idx = np.flatnonzero(host(done))
+        """Record the episodes that ended where done (N,) is True (arrays or tensors), but
+        not those the env marks `assisted` (started inside the hole: not the task's starts)."""
+        done = host(done)
+        if "assisted" in info:
+            done = done & ~host(info["assisted"])
+        idx = np.flatnonzero(done)
         if not len(idx):
             return
         keys = ("episode_return", "episode_length", "success", "time_to_success")

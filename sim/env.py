@@ -22,6 +22,8 @@ Contract (what rl/ relies on):
             peg_pose         (num_envs, 7) float64: true pose (position, quaternion w x y z)
                              of the peg at the end of this step, before any reset; valid
                              for every env (for recording episodes)
+            assisted         (num_envs,) bool: the episode started inside the hole
+                             (TaskConfig.inside_starts); not a task episode
 Actions are clipped to [-1, 1] and scaled to max_lin_vel / max_ang_vel: the target linear
 and angular velocity of the peg's bottom-face centre in the module frame.
 """
@@ -215,6 +217,7 @@ class PegInHoleVecEnv:
         self._return = np.zeros(n)
         self._c_prev = np.zeros(n)
         self._d0 = np.ones(n)
+        self._assisted = np.zeros(n, dtype=bool)  # this episode started inside the hole
         # a robot's readings after the 18 pose entries (TaskConfig.readings), with their noise
         self._reading_noise = reading_noise(self.cfg)
         self.obs_dim = T.OBS_DIM + len(self._reading_noise)
@@ -358,6 +361,11 @@ class PegInHoleVecEnv:
             scale,
             cfg,
         )
+        self._assisted[idx] = False
+        if cfg.inside_starts is not None:  # a share starts inside the hole (reverse curriculum)
+            inside = self.rng.random(len(idx)) < cfg.inside_starts
+            pos[inside], quat[inside] = self._inside_poses(idx[inside])
+            self._assisted[idx] = inside
         pos, quat = self._place(idx, pos, quat, scale)
         k = len(idx)
         # static and dynamic friction are drawn as in the original; each engine takes them
@@ -367,6 +375,16 @@ class PegInHoleVecEnv:
         static, dynamic, restitution = lo[:, None] + (hi - lo)[:, None] * u
         self.sim.set_material(idx, static, dynamic, restitution)
         self._start_episodes(idx, pos, quat)
+
+    def _inside_poses(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (k, 3) and quaternions (k, 4) of pegs of envs idx inside their holes:
+        turned as on the seat, their bottoms on the axis between the entrance and twice the
+        success radius above the seat (TaskConfig.inside_starts)."""
+        seat, entrance = self.bottom[idx, :3, 3], self.entrance[idx, :3, 3]
+        depth = np.linalg.norm(entrance - seat, axis=1)
+        low = np.minimum(2.0 * self.cfg.success_radius / np.maximum(depth, 1e-9), 1.0)
+        u = low + (1.0 - low) * self.rng.random(len(idx))
+        return seat + u[:, None] * (entrance - seat), matrix_to_quat(self.bottom[idx, :3, :3])
 
     MAX_SPAWN_DRAWS = 200
     """Draws of one env's spawn pose before a robot that reaches none of them is refused."""
@@ -406,6 +424,7 @@ class PegInHoleVecEnv:
         idx = np.atleast_1d(np.asarray(idx))
         quat = matrix_to_quat(poses[:, :3, :3])
         self.sim.set_pose(idx, poses[:, :3, 3], quat)
+        self._assisted[idx] = False
         self._start_episodes(idx, poses[:, :3, 3], quat)
         self._obs[idx] = self._observe(idx)
 
@@ -546,11 +565,13 @@ class PegInHoleVecEnv:
             "time_to_success": np.where(success, self._steps * self.control_dt, np.nan),
             "module": self.env_module.copy(),
             "peg_pose": self.sim.state[:, 1:8].copy(),
+            "assisted": self._assisted.copy(),
         }
+        counted = done & ~self._assisted  # an episode started inside the hole counts nowhere
         if self.curriculum is not None:  # before the resets: they spawn at the new scale
-            self.curriculum.update(done, success)
+            self.curriculum.update(counted, success)
         if self.module_replay is not None:  # before the resets: they pick by the new scores
-            self.module_replay.update(self.env_module, done, success)
+            self.module_replay.update(self.env_module, counted, success)
         idx = np.flatnonzero(done)
         if len(idx):
             self._reset_envs(idx)
@@ -575,6 +596,7 @@ class PegInHoleVecEnv:
             "return": self._return.copy(),
             "c_prev": self._c_prev.copy(),
             "d0": self._d0.copy(),
+            "assisted": self._assisted.copy(),
             "obs": self._obs.copy(),
             "rng": self.rng.bit_generator.state,
             "global_step": int(self.global_step),
@@ -637,6 +659,7 @@ class PegInHoleVecEnv:
         self._return[:] = state["return"]
         self._c_prev[:] = state["c_prev"]
         self._d0[:] = state["d0"]
+        self._assisted[:] = state.get("assisted", False)  # saved before inside starts: none
         self._obs[:] = state["obs"]
         rng = np.random.default_rng()
         rng.bit_generator.state = state["rng"]
@@ -663,6 +686,7 @@ def train_config(
     near_starts: float | None = None,
     axis_shaping: float | None = None,
     readings: tuple[str, ...] = (),
+    inside_starts: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -678,6 +702,8 @@ def train_config(
         config = replace(config, module_replay=float(module_replay)).validate()
     if near_starts is not None:
         config = replace(config, near_starts=float(near_starts)).validate()
+    if inside_starts is not None:
+        config = replace(config, inside_starts=float(inside_starts)).validate()
     if axis_shaping is not None:
         config = replace(config, dist_axis_weight=float(axis_shaping)).validate()
     if readings:
@@ -698,6 +724,7 @@ def make_train_env(
     axis_shaping: float | None = None,
     robot: str | None = None,
     readings: tuple[str, ...] = (),
+    inside_starts: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -707,7 +734,7 @@ def make_train_env(
     simulated with the physics its files carry). engine: a registered engine's name (physx,
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
-    task on the device). near_starts: TaskConfig.near_starts; axis_shaping:
+    task on the device). near_starts, inside_starts: TaskConfig's; axis_shaping:
     TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats);
     readings: what it adds to the observation (TaskConfig.readings)."""
     root, config = train_config(
@@ -719,6 +746,7 @@ def make_train_env(
         near_starts,
         axis_shaping,
         readings,
+        inside_starts,
     )
     return PegInHoleVecEnv(
         root,

@@ -48,12 +48,13 @@ def test_a_lane_files_its_run_and_picks_up_where_it_stopped(tiny_dataset, tmp_pa
     assert not list(filed.parent.glob(".*"))  # no temporary folder left
 
 
-def test_a_candidate_row_trains_with_its_overrides_and_its_own_budget(
+def test_a_candidate_row_trains_with_its_overrides_flags_and_its_own_budget(
     tiny_dataset, tmp_path, monkeypatch
 ) -> None:
     import benchmarks.table3 as t3
 
     monkeypatch.setitem(t3.ROWS, "ppo-cand", t3.Row("ppo", overrides=("obs_symlog_scale=1000",),
+                                                    flags=("--near-starts", "0.5"),
                                                     minutes=0.02))  # fmt: skip
     runs, results = tmp_path / "runs", tmp_path / "results"
     # the lane's own --minutes (an hour) is not the candidate's: the row's budget wins
@@ -64,6 +65,7 @@ def test_a_candidate_row_trains_with_its_overrides_and_its_own_budget(
     config = json.loads((filed / "config.json").read_text())
     assert config["overrides"] == {"obs_symlog_scale": 1000.0}
     assert config["config"]["obs_symlog_scale"] == 1000.0
+    assert config["env_options"]["near_starts"] == 0.5  # the row's train flags
     assert json.loads((filed / "eval_test.json").read_text())["overrides"] == config["overrides"]
     assert float(_rows(filed / "metrics.csv")[-1]["wall_s"]) < 60  # not the hour
 

@@ -30,11 +30,13 @@ class PreflightError(ValueError):
 @dataclass(frozen=True)
 class Bound:
     """The values a numeric flag accepts: finite, at least `low` (more than `low` when
-    `low_open`), at most `high`; `hint` says what to give (default: from the bounds)."""
+    `low_open`), at most `high` (less than `high` when `high_open`); `hint` says what to
+    give (default: from the bounds)."""
 
     low: float | None = None
     high: float | None = None
     low_open: bool = False
+    high_open: bool = False
     hint: str = ""
 
     def accepts(self, value: float) -> bool:
@@ -42,7 +44,9 @@ class Bound:
             return False
         if self.low is not None and (value <= self.low if self.low_open else value < self.low):
             return False
-        return self.high is None or value <= self.high
+        if self.high is None:
+            return True
+        return value < self.high if self.high_open else value <= self.high
 
     def describe(self, integer: bool) -> str:
         if self.hint:

@@ -72,6 +72,14 @@ class TaskConfig:
     without it). None draws nothing more: the episodes are those of a run without it."""
     near_start_scale: float = 0.05
     """The fraction of the full spawn ranges that near starts are drawn in."""
+    inside_starts: float | None = None
+    """If set (in (0, 1)), this share of the training episodes starts with the peg inside its
+    hole: on the hole's axis, turned as it sits on the seat, its bottom drawn uniformly
+    between the entrance and twice `success_radius` above the seat. It is a reverse
+    curriculum's first stage: a push down succeeds, so the critic meets the success reward
+    before the agent can find the hole. These episodes are marked (`info["assisted"]`) and
+    left out of the training statistics, the success-gated curriculum and the module replay:
+    they say nothing of the task's own starts. None draws nothing more."""
     module_replay: float | None = None
     """If set (in (0, 1]), a rotating env draws this share of its next modules weighted by
     their recent failure rate instead of taking them in turn (sim/task/module_replay.py)."""
@@ -142,6 +150,8 @@ class TaskConfig:
             "near_starts is None or in (0, 1]": self.near_starts is None
             or 0.0 < self.near_starts <= 1.0,
             "0 <= near_start_scale <= 1": 0.0 <= self.near_start_scale <= 1.0,
+            "inside_starts is None or in (0, 1)": self.inside_starts is None
+            or 0.0 < self.inside_starts < 1.0,
             "dist_axis_weight >= 0 and finite": math.isfinite(self.dist_axis_weight)
             and self.dist_axis_weight >= 0.0,
             f"readings from {sorted(READINGS)}, each once": set(self.readings) <= set(READINGS)

@@ -69,6 +69,11 @@ class WarpTorchVecEnv:
                 "near_starts (--near-starts): starts near the hole for a share of the episodes "
                 "run in the host env only (PegInHoleVecEnv: --sim mujoco or physx)"
             )
+        if config is not None and config.inside_starts is not None:
+            raise ValueError(
+                "inside_starts (--inside-starts): starts inside the hole run in the host env "
+                "only (PegInHoleVecEnv: --sim mujoco or physx)"
+            )
         if config is not None and config.dist_axis_weight != 0.0:
             raise ValueError(
                 "dist_axis_weight (--axis-shaping): the reward's axis term runs in the host "
