@@ -177,6 +177,7 @@ ROBOT_CLEARANCES = (("1 mm", ""), ("0.25 mm", "_c025"))
 ROBOT_TRAINED = (
     ("sac-teacher-free recipe, trained on the arm", "arm-sac"),
     ("the same with the wrist reading", "arm-sac-wrist"),
+    ("the recipe with --inside-starts 0.25, trained on the arm", "arm-sac-inside"),
 )
 """Policies trained on the robot: (label, NAME); their files NAME_sSEED_{none,ROBOT}_test64
 {SUFFIX}.json, one a seed (a policy with the wrist reading has no floating file)."""
