@@ -301,13 +301,13 @@ def _candidate(path: str, extra: str) -> str:
     import json
 
     from assetgen.core.overrides import parse_overrides
-    from benchmarks.table3 import ROWS
+    from benchmarks.table3 import RECIPE_OVERRIDES
     from rl.configs import SACConfig
     from rl.report_load import variant_name
 
     meta = json.loads((Path(path) / "config.json").read_text())
     over = meta.get("overrides") or {}
-    recipe = parse_overrides(SACConfig, list(ROWS["sac-symlog-n3-gs05-g098"].overrides))
+    recipe = parse_overrides(SACConfig, list(RECIPE_OVERRIDES))
     if (
         meta["algo"] != "sac"
         or meta.get("demos")

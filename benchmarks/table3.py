@@ -71,6 +71,9 @@ class Row:
     `python -m benchmarks.table3 ROW --seed S` still runs one."""
 
 
+RECIPE_OVERRIDES = ("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5", "gamma=0.98")
+"""The teacher-free recipe's overrides (the README's), of its row and its candidates'."""
+
 ROWS: dict[str, Row] = {
     "random": Row("random"),
     "ppo": Row("ppo"),
@@ -96,14 +99,10 @@ ROWS: dict[str, Row] = {
         minutes=120.0,
         superseded_by="sac-symlog-n3-gs05-g098",
     ),
-    "sac-symlog-n3-gs05-g098": Row(
-        "sac",
-        overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5", "gamma=0.98"),
-        minutes=120.0,
-    ),
+    "sac-symlog-n3-gs05-g098": Row("sac", overrides=RECIPE_OVERRIDES, minutes=120.0),
     "sac-symlog-n3-gs05-g098-inside25": Row(
         "sac",
-        overrides=("obs_symlog_scale=1000", "n_step=3", "gradient_steps=0.5", "gamma=0.98"),
+        overrides=RECIPE_OVERRIDES,
         flags=("--inside-starts", "0.25"),
         minutes=120.0,
     ),

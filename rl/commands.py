@@ -105,12 +105,9 @@ TRAIN_NUMBERS = {
         "give the share of modules drawn by their failures, in (0, 1], e.g. 0.5"
     ),
     "near_starts": share("give the share of episodes that start near the hole, in (0, 1]"),
-    "inside_starts": Bound(
-        low=0.0,
-        high=1.0,
-        low_open=True,
-        high_open=True,
-        hint="give the share of episodes that start inside the hole, in (0, 1), e.g. 0.25",
+    "inside_starts": share(
+        "give the share of episodes that start inside the hole, in (0, 1), e.g. 0.25",
+        whole=False,
     ),
     "axis_shaping": Bound(low=0.0, hint="give a finite weight of 0 or more, e.g. 2"),
     "threads": count(),
@@ -331,18 +328,10 @@ def train_main(
                 "spawn ranges follow either success or env steps"
             )
         gate = {} if gated is None else {"curriculum_success": gated}
-        replay = getattr(args, "module_replay", None)
-        if replay is not None:
-            gate["module_replay"] = replay
-        near = getattr(args, "near_starts", None)
-        if near is not None:
-            gate["near_starts"] = near
-        inside = getattr(args, "inside_starts", None)
-        if inside is not None:
-            gate["inside_starts"] = inside
-        axis = getattr(args, "axis_shaping", None)
-        if axis is not None:
-            gate["axis_shaping"] = axis
+        for option in ("module_replay", "near_starts", "inside_starts", "axis_shaping"):
+            value = getattr(args, option, None)  # the env's training options, where given
+            if value is not None:
+                gate[option] = value
         teacher = None
         demos = getattr(args, "demos", None)
         if demos is not None:

@@ -80,9 +80,11 @@ def positive(hint: str = "", high: float | None = None) -> Bound:
     return Bound(low=0.0, high=high, low_open=True, hint=hint)
 
 
-def share(hint: str = "") -> Bound:
-    """A finite number in (0, 1]."""
-    return Bound(low=0.0, high=1.0, low_open=True, hint=hint or "give a number in (0, 1]")
+def share(hint: str = "", whole: bool = True) -> Bound:
+    """A finite number in (0, 1] (in (0, 1) when not `whole`: the share cannot be all)."""
+    top = "]" if whole else ")"
+    return Bound(low=0.0, high=1.0, low_open=True, high_open=not whole,
+                 hint=hint or f"give a number in (0, 1{top}")  # fmt: skip
 
 
 def seed(high: int | None = MAX_SEED) -> Bound:
