@@ -106,6 +106,12 @@ ROWS: dict[str, Row] = {
         flags=("--inside-starts", "0.25"),
         minutes=120.0,
     ),
+    "sac-symlog-n3-gs05-g098-inside25-until10": Row(
+        "sac",
+        overrides=RECIPE_OVERRIDES,
+        flags=("--inside-starts", "0.25", "--inside-starts-until", "0.1"),
+        minutes=120.0,
+    ),
 }
 """The paper's rows ("-stack": its STACK variant, the last 10 observations), then the best
 teacher-free candidates of the screening (docs/results/README.md), with their overrides and
@@ -113,7 +119,8 @@ their two hours: SAC on symlog observations, then the same with 3-step returns, 
 half a gradient step per env step as well (more env steps in the two hours), then with a
 discount of 0.98 as well (the return of a success is 1 whatever its time: only the discount
 rewards speed), then the same with a quarter of the training episodes started inside the
-hole (a reverse curriculum's first stage: it takes off on the seeds the recipe stalls on)."""
+hole (a reverse curriculum's first stage: it takes off on the seeds the recipe stalls on),
+then the same with the inside starts ended at take-off (10 % of 256 task episodes in a row)."""
 
 
 def run_dir(runs: Path, row: str, seed: int) -> Path:

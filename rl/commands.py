@@ -109,6 +109,7 @@ TRAIN_NUMBERS = {
         "give the share of episodes that start inside the hole, in (0, 1), e.g. 0.25",
         whole=False,
     ),
+    "inside_starts_until": share("give the task episodes' success rate that ends them, in (0, 1]"),
     "axis_shaping": Bound(low=0.0, hint="give a finite weight of 0 or more, e.g. 2"),
     "threads": count(),
     "probe_steps": count("give a positive number of steps"),
@@ -230,6 +231,13 @@ def add_train_parser(
         "they are left out of the training columns and of the curriculum's counts",
     )
     p.add_argument(
+        "--inside-starts-until",
+        type=float,
+        metavar="RATE",
+        help="stop the inside starts for good once 256 training episodes of the task's own "
+        "starts in a row succeed at RATE (in (0, 1]) or more: the hand-over at take-off",
+    )
+    p.add_argument(
         "--axis-shaping",
         type=float,
         metavar="W",
@@ -328,7 +336,8 @@ def train_main(
                 "spawn ranges follow either success or env steps"
             )
         gate = {} if gated is None else {"curriculum_success": gated}
-        for option in ("module_replay", "near_starts", "inside_starts", "axis_shaping"):
+        options = ("module_replay", "near_starts", "inside_starts", "inside_starts_until")
+        for option in (*options, "axis_shaping"):
             value = getattr(args, option, None)  # the env's training options, where given
             if value is not None:
                 gate[option] = value

@@ -84,15 +84,20 @@ def _finite(agent: Agent) -> bool:
     )
 
 
-def env_curriculum(env: Any) -> Any | None:
-    """The success-gated curriculum of `env` (through wrappers; sim/task/curriculum.py), whose
-    level the metrics log as curriculum_scale, or None."""
+def env_part(env: Any, name: str) -> Any | None:
+    """The attribute `name` of `env` or of an env it wraps, or None."""
     while env is not None:
-        found = getattr(env, "curriculum", None)
+        found = getattr(env, name, None)
         if found is not None:
             return found
         env = getattr(env, "env", None)
     return None
+
+
+def env_curriculum(env: Any) -> Any | None:
+    """The success-gated curriculum of `env` (through wrappers; sim/task/curriculum.py), whose
+    level the metrics log as curriculum_scale, or None."""
+    return env_part(env, "curriculum")
 
 
 # ----------------------------------------------------------------------------- train
@@ -239,8 +244,11 @@ def train(
         raise ValueError(f"probe_steps = {probe_steps}: give a positive number of env steps")
     probe_every = math.ceil(probe_steps / per_iter) if probe is not None and probe_steps else 0
     curriculum = env_curriculum(env)
+    # the share of inside starts, where a take-off gate can end them (sim/task/takeoff_gate.py)
+    inside = env_part(env, "inside_share") if env_part(env, "inside_gate") else None
     columns = BASE_COLUMNS + tuple(agent.log_keys) + (PROBE_COLUMNS if probe else ())
     columns += ("curriculum_scale",) if curriculum is not None else ()
+    columns += ("inside_share",) if inside is not None else ()
     log = MetricsLog(out_dir, columns, iteration if resume else None, tensorboard)
     bar = ProgressBar(progress, steps, env_steps)
     t_start = time.perf_counter()
@@ -290,6 +298,7 @@ def train(
                 **stats.summary(),
                 **losses,
                 **({} if curriculum is None else {"curriculum_scale": curriculum.level}),
+                **({} if inside is None else {"inside_share": inside()}),
             }
             if probe_every and iteration % probe_every == 0:
                 # before the checkpoint: its RNG state is then the one a resume continues from

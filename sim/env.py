@@ -49,6 +49,7 @@ from sim.task import kernel as K
 from sim.task import rules as T
 from sim.task.config import TaskConfig, reading_noise
 from sim.task.curriculum import SuccessCurriculum
+from sim.task.takeoff_gate import TakeoffGate
 from sim.task.module_replay import ModuleReplay
 
 
@@ -195,6 +196,12 @@ class PegInHoleVecEnv:
             )
         )
         """The success-gated curriculum (TaskConfig.curriculum_success), or None."""
+        self.inside_gate: TakeoffGate | None = (
+            None
+            if self.cfg.inside_starts_until is None
+            else TakeoffGate(self.cfg.inside_starts_until, self.cfg.curriculum_window)
+        )
+        """Turns the inside starts off at take-off (TaskConfig.inside_starts_until), or None."""
         self.module_replay: ModuleReplay | None = None
         """Modules drawn by their failures (TaskConfig.module_replay), or None: in turn."""
         if self.cfg.module_replay is not None:
@@ -295,6 +302,15 @@ class PegInHoleVecEnv:
             self.sim.set_module(e, self.module_ids[k])
         self._use_modules()
 
+    def inside_share(self) -> float:
+        """The share of the next episodes that start inside the hole (TaskConfig.inside_starts;
+        0 once the take-off gate has closed, or without them)."""
+        if self.cfg.inside_starts is None or not (
+            self.inside_gate is None or self.inside_gate.open
+        ):
+            return 0.0
+        return self.cfg.inside_starts
+
     def curriculum_scale(self) -> float:
         """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
         if self.curriculum is not None:
@@ -362,8 +378,8 @@ class PegInHoleVecEnv:
             cfg,
         )
         self._assisted[idx] = False
-        if cfg.inside_starts is not None:  # a share starts inside the hole (reverse curriculum)
-            inside = self.rng.random(len(idx)) < cfg.inside_starts
+        if self.inside_share():  # a share starts inside the hole (reverse curriculum)
+            inside = self.rng.random(len(idx)) < self.inside_share()
             pos[inside], quat[inside] = self._inside_poses(idx[inside])
             self._assisted[idx] = inside
         pos, quat = self._place(idx, pos, quat, scale)
@@ -570,6 +586,8 @@ class PegInHoleVecEnv:
         counted = done & ~self._assisted  # an episode started inside the hole counts nowhere
         if self.curriculum is not None:  # before the resets: they spawn at the new scale
             self.curriculum.update(counted, success)
+        if self.inside_gate is not None:  # before the resets: they draw by the gate's decision
+            self.inside_gate.update(counted, success, self.global_step)
         if self.module_replay is not None:  # before the resets: they pick by the new scores
             self.module_replay.update(self.env_module, counted, success)
         idx = np.flatnonzero(done)
@@ -607,6 +625,7 @@ class PegInHoleVecEnv:
             # again, so that a resumed evaluation steps exactly as an uncut one
             **({} if self._live is None else {"live": self._live.copy()}),
             **({} if self.curriculum is None else {"curriculum": self.curriculum.state()}),
+            **({} if self.inside_gate is None else {"inside_gate": self.inside_gate.state()}),
             **({} if self.module_replay is None else {"module_replay": self.module_replay.state()}),
         }
 
@@ -672,6 +691,8 @@ class PegInHoleVecEnv:
             self.curriculum.load(state["curriculum"])
         if self.module_replay is not None:
             self.module_replay.load(state["module_replay"])
+        if self.inside_gate is not None:
+            self.inside_gate.load(state["inside_gate"])
 
     def close(self) -> None:
         self.sim.close()
@@ -687,6 +708,7 @@ def train_config(
     axis_shaping: float | None = None,
     readings: tuple[str, ...] = (),
     inside_starts: float | None = None,
+    inside_starts_until: float | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -704,6 +726,8 @@ def train_config(
         config = replace(config, near_starts=float(near_starts)).validate()
     if inside_starts is not None:
         config = replace(config, inside_starts=float(inside_starts)).validate()
+    if inside_starts_until is not None:
+        config = replace(config, inside_starts_until=float(inside_starts_until)).validate()
     if axis_shaping is not None:
         config = replace(config, dist_axis_weight=float(axis_shaping)).validate()
     if readings:
@@ -725,6 +749,7 @@ def make_train_env(
     robot: str | None = None,
     readings: tuple[str, ...] = (),
     inside_starts: float | None = None,
+    inside_starts_until: float | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -734,7 +759,7 @@ def make_train_env(
     simulated with the physics its files carry). engine: a registered engine's name (physx,
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
-    task on the device). near_starts, inside_starts: TaskConfig's; axis_shaping:
+    task on the device). near_starts, inside_starts, inside_starts_until: TaskConfig's; axis_shaping:
     TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats);
     readings: what it adds to the observation (TaskConfig.readings)."""
     root, config = train_config(
@@ -747,6 +772,7 @@ def make_train_env(
         axis_shaping,
         readings,
         inside_starts,
+        inside_starts_until,
     )
     return PegInHoleVecEnv(
         root,

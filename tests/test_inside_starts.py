@@ -124,3 +124,75 @@ def test_train_takes_it_and_refuses_a_share_of_one(tmp_path) -> None:
     p = cli(*base, "--inside-starts", "1", "--out", str(tmp_path / "bad"))
     out = p.stdout + p.stderr
     assert p.returncode != 0 and "--inside-starts 1" in out and "(0, 1)" in out
+
+
+# --------------------------------------------------------------- until take-off (the gate)
+
+
+def test_the_gate_closes_at_the_first_window_at_its_rate_and_stays_closed() -> None:
+    from sim.task.takeoff_gate import TakeoffGate
+
+    gate = TakeoffGate(0.5, window=4)
+    done = np.array([True, True, False, True, True])
+    gate.update(done, np.array([True, False, True, False, False]), step=10)
+    assert gate.open and (gate.episodes, gate.successes) == (0, 0)  # 1 of 4: below, reset
+    gate.update(done, np.array([True, False, False, True, False]), step=20)
+    assert not gate.open and gate.closed_at == 20  # 2 of 4 = 0.5: closed
+    gate.update(done, np.zeros(5, bool), step=30)  # a closed gate counts nothing more
+    assert not gate.open and gate.closed_at == 20
+    fresh = TakeoffGate(0.5, window=4)
+    fresh.load(gate.state())
+    assert (fresh.open, fresh.closed_at) == (False, 20)
+
+
+def test_the_gate_ends_the_inside_starts_once_the_task_takes_off() -> None:
+    """The scripted expert seats pegs from the task's own starts: after the first window of
+    them, the gate closes and no episode started after it is assisted."""
+    from sim.task.expert import direct_expert_action
+
+    cfg = quiet(inside_starts=0.5, inside_starts_until=0.5, curriculum_window=4)
+    env = make_env(4, cfg, num_envs=8)
+    obs = env.reset(seed=6)
+    assert env.inside_share() == 0.5 and env._assisted.any()
+    closed_at = None
+    for _ in range(600):
+        obs, _, term, trunc, info = env.step(direct_expert_action(obs))
+        if closed_at is None and not env.inside_gate.open:
+            closed_at, started = env.global_step, env._assisted.copy()
+        elif closed_at is not None:  # only episodes begun before the gate closed are assisted
+            assert not (env._assisted & ~started).any()
+            started &= ~(term | trunc)
+    assert closed_at is not None and env.inside_gate.closed_at == closed_at
+    assert env.inside_share() == 0.0 and not env._assisted.any()
+
+
+def test_the_gates_state_is_saved_and_restored() -> None:
+    cfg = quiet(inside_starts=0.5, inside_starts_until=0.5)
+    a, b = make_env(4, cfg, num_envs=8), make_env(4, cfg, num_envs=8)
+    a.reset(seed=4)
+    b.reset(seed=5)
+    a.inside_gate.open, a.inside_gate.episodes, a.inside_gate.closed_at = False, 3, 77
+    b.set_state(a.get_state())
+    assert (b.inside_gate.open, b.inside_gate.episodes, b.inside_gate.closed_at) == (False, 3, 77)
+    assert b.inside_share() == 0.0
+
+
+def test_a_gate_without_inside_starts_is_refused() -> None:
+    with pytest.raises(ValueError, match="inside_starts_until"):
+        TaskConfig(inside_starts_until=0.1).validate()
+    with pytest.raises(ValueError, match="inside_starts_until"):
+        TaskConfig(inside_starts=0.25, inside_starts_until=0.0).validate()
+
+
+def test_train_logs_the_inside_share_and_refuses_a_gate_alone(tmp_path) -> None:
+    base = debug_train_args()
+    flags = ("--inside-starts", "0.25", "--inside-starts-until", "0.1")
+    p = cli(*base, *flags, "--out", str(tmp_path / "run"))
+    assert p.returncode == 0, p.stderr
+    assert '"inside_starts_until": 0.1' in (tmp_path / "run" / "config.json").read_text()
+    header, *rows = (tmp_path / "run" / "metrics.csv").read_text().splitlines()
+    share = header.split(",").index("inside_share")
+    assert rows and all(float(r.split(",")[share]) == 0.25 for r in rows)  # not taken off
+    p = cli(*base, "--inside-starts-until", "0.1", "--out", str(tmp_path / "alone"))
+    out = p.stdout + p.stderr
+    assert p.returncode != 0 and "inside_starts_until" in out and len(out.strip().splitlines()) == 1

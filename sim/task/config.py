@@ -80,6 +80,11 @@ class TaskConfig:
     before the agent can find the hole. These episodes are marked (`info["assisted"]`) and
     left out of the training statistics, the success-gated curriculum and the module replay:
     they say nothing of the task's own starts. None draws nothing more."""
+    inside_starts_until: float | None = None
+    """If set (in (0, 1]), the inside starts stop for good once `curriculum_window` task
+    episodes (inside starts not counted) in a row succeeded at this rate or more
+    (sim/task/takeoff_gate.py): a hand-over from the reverse curriculum to the task's own
+    starts once the agent has taken off. None: inside starts for the whole run."""
     module_replay: float | None = None
     """If set (in (0, 1]), a rotating env draws this share of its next modules weighted by
     their recent failure rate instead of taking them in turn (sim/task/module_replay.py)."""
@@ -152,6 +157,10 @@ class TaskConfig:
             "0 <= near_start_scale <= 1": 0.0 <= self.near_start_scale <= 1.0,
             "inside_starts is None or in (0, 1)": self.inside_starts is None
             or 0.0 < self.inside_starts < 1.0,
+            "inside_starts_until is None, or in (0, 1] with inside_starts set": (
+                self.inside_starts_until is None
+                or (self.inside_starts is not None and 0.0 < self.inside_starts_until <= 1.0)
+            ),
             "dist_axis_weight >= 0 and finite": math.isfinite(self.dist_axis_weight)
             and self.dist_axis_weight >= 0.0,
             f"readings from {sorted(READINGS)}, each once": set(self.readings) <= set(READINGS)
