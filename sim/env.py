@@ -49,8 +49,8 @@ from sim.task import kernel as K
 from sim.task import rules as T
 from sim.task.config import TaskConfig, reading_noise
 from sim.task.curriculum import SuccessCurriculum
-from sim.task.takeoff_gate import TakeoffGate
 from sim.task.module_replay import ModuleReplay
+from sim.task.takeoff_gate import TakeoffGate
 
 
 def assign_modules(num_modules: int, num_envs: int, seed: int) -> np.ndarray:
@@ -759,9 +759,9 @@ def make_train_env(
     simulated with the physics its files carry). engine: a registered engine's name (physx,
     the referee, serves one env per module, so num_envs must cover the dataset's modules;
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
-    task on the device). near_starts, inside_starts, inside_starts_until: TaskConfig's; axis_shaping:
-    TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None: it floats);
-    readings: what it adds to the observation (TaskConfig.readings)."""
+    task on the device). near_starts, inside_starts, inside_starts_until: TaskConfig's;
+    axis_shaping: TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None:
+    it floats); readings: what it adds to the observation (TaskConfig.readings)."""
     root, config = train_config(
         dataset,
         curriculum_steps,

@@ -156,7 +156,7 @@ def test_the_gate_ends_the_inside_starts_once_the_task_takes_off() -> None:
     assert env.inside_share() == 0.5 and env._assisted.any()
     closed_at = None
     for _ in range(600):
-        obs, _, term, trunc, info = env.step(direct_expert_action(obs))
+        obs, _, term, trunc, _ = env.step(direct_expert_action(obs))
         if closed_at is None and not env.inside_gate.open:
             closed_at, started = env.global_step, env._assisted.copy()
         elif closed_at is not None:  # only episodes begun before the gate closed are assisted
