@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_the_folders_are_the_families():
-    assert registry.names() == ["peg-in-hole", "profile-bolt"]
+    assert registry.names() == ["peg-in-hole", "profile", "profile-bolt"]
     for name in registry.names():
         fam = registry.get(name)
         assert isinstance(fam, Family) and fam.name == name and fam.summary
@@ -56,7 +56,8 @@ def test_an_unknown_family_is_refused_with_the_valid_ones():
     )  # fmt: skip
     assert p.returncode == 2
     lines = p.stderr.strip().splitlines()
-    assert len(lines) == 1 and "valid families: ['peg-in-hole', 'profile-bolt']" in lines[0]
+    valid = "valid families: ['peg-in-hole', 'profile', 'profile-bolt']"
+    assert len(lines) == 1 and valid in lines[0]
 
 
 def test_the_families_command_lists_them():
@@ -65,7 +66,7 @@ def test_the_families_command_lists_them():
     )
     assert p.returncode == 0, p.stderr
     listed = {f["name"]: f for f in json.loads(p.stdout)}
-    assert sorted(listed) == ["peg-in-hole", "profile-bolt"]
+    assert sorted(listed) == ["peg-in-hole", "profile", "profile-bolt"]
     bolt = {q["name"]: q for q in listed["profile-bolt"]["parameters"]}
     assert bolt["profile_clearance"]["default"] == 0.25e-3
     assert "socket" in bolt["profile_clearance"]["doc"]
@@ -74,6 +75,7 @@ def test_the_families_command_lists_them():
         [sys.executable, "cli.py", "families"], cwd=ROOT, capture_output=True, text=True
     )
     assert table.returncode == 0 and "hole_tilt" in table.stdout and "bolt_diameter" in table.stdout
+    assert "star_inner" in table.stdout and "spline" in table.stdout  # names shown as they are
 
 
 @pytest.fixture

@@ -30,7 +30,12 @@ def main(args: argparse.Namespace) -> int:
         table.add_row(f"[bold]{f['name']}[/]", "", escape(f"{f['summary']} ({f['layout']})"))
         for q in f["parameters"]:
             d = q["default"]
-            shown = ", ".join(f"{v:.6g}" for v in d) if isinstance(d, list) else f"{d:.6g}"
+            shown = ", ".join(map(_shown, d)) if isinstance(d, list) else _shown(d)
             table.add_row(f"  {q['name']}", shown, escape(q["doc"]))
     Console().print(table)
     return 0
+
+
+def _shown(value: object) -> str:
+    """A default as the table shows it: numbers to 6 significant digits, names as they are."""
+    return f"{value:.6g}" if isinstance(value, int | float) else str(value)
