@@ -23,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     from assetgen.dataset.sample_command import add_parser as add_sample_parser
     from assetgen.families.command import add_parser as add_families_parser
     from assetgen.physics.command import add_parser as add_physics_parser
+    from assetgen.printing.command import add_parser as add_gauge_parser
     from evaluation.command import add_parser as add_eval_parser
     from preview.command import add_parser as add_view_parser
     from sim.bench.command import add_parsers as add_sim_benches
@@ -45,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_physics_parser(sub)
     add_info_parser(sub)
     add_families_parser(sub)
+    add_gauge_parser(sub)
 
     b = sub.add_parser("bench", help="benchmarks (figures printed; --json for one JSON line)")
     targets = b.add_subparsers(dest="what", required=True, metavar="{assets,sim,load,contacts}")

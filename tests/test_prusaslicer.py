@@ -33,3 +33,30 @@ def test_the_parts_slice_as_separate_closed_objects(tmp_path, slots) -> None:
                    check=True)  # fmt: skip
     printed = set(re.findall(r"^; printing object (\w+) ", gcode.read_text(), re.M))
     assert printed == {"base", "profile", "bolt"}
+
+
+def _slices_as(three_mf, names: set[str], tmp_path) -> None:
+    info = subprocess.run([SLICER, "--info", str(three_mf)], capture_output=True, text=True,
+                          timeout=300, check=True).stdout  # fmt: skip
+    assert info.count("manifold = yes") == len(names) and "manifold = no" not in info, info
+    gcode = tmp_path / "out.gcode"
+    subprocess.run([SLICER, "--export-gcode", "--gcode-label-objects", "--output", str(gcode),
+                    str(three_mf)], capture_output=True, text=True, timeout=600,
+                   check=True)  # fmt: skip
+    assert set(re.findall(r"^; printing object (\w+) ", gcode.read_text(), re.M)) == names
+
+
+def test_a_non_convex_peg_and_its_plate_slice(tmp_path) -> None:
+    from assetgen.families.profile import ProfileSampler, build_profile
+
+    params = ProfileSampler(shapes=("star",)).sample(1)
+    write_assembly("profile", params, build_profile(params), 1, tmp_path)
+    _slices_as(tmp_path / "000001" / "assembly.3mf", {"base", "peg"}, tmp_path)
+
+
+def test_the_clearance_gauge_slices(tmp_path) -> None:
+    from assetgen.printing.gauge import GaugeParams, build_gauge
+
+    params = GaugeParams(clearances=(1e-4, 1e-3))
+    write_assembly("gauge", params, build_gauge(params), 0, tmp_path)
+    _slices_as(tmp_path / "000000" / "assembly.3mf", {"base", "peg_01", "peg_02"}, tmp_path)

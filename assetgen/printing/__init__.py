@@ -1,0 +1,1 @@
+"""What helps printed parts fit: the clearance gauge (assetgen/printing/gauge.py)."""
