@@ -17,10 +17,24 @@ from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 MARGIN = 0.01
 """m a hole is kept beyond the part's solids when clipped (enough to cut cleanly through)."""
+SNAP = 1e-10
+"""m: vertices of different holes nearer than this are made one. Holes that share a corner
+(the convex pieces of one non-convex hole) enumerate it from different planes, a few 1e-17 m
+apart; left apart, the boolean pinches the surface there, which the float32 STL folds into
+an open one. Far below the files' 10 nm resolution; no earlier file changes (tested)."""
 
 
-def _hulls(systems: list[np.ndarray]) -> list[mf.Manifold]:
-    return [mf.Manifold.hull_points(v) for v in polytope_vertices_batch(systems)]
+def snap(vertex_sets: list[np.ndarray], tol: float = SNAP) -> list[np.ndarray]:
+    """The vertex sets with every vertex moved onto the first one (in order) within `tol`."""
+    sizes = [len(v) for v in vertex_sets]
+    allv = np.vstack(vertex_sets)
+    near = np.linalg.norm(allv[:, None, :] - allv[None, :, :], axis=2) < tol
+    return np.split(allv[near.argmax(axis=1)], np.cumsum(sizes)[:-1])
+
+
+def _hulls(systems: list[np.ndarray], snapped: bool = False) -> list[mf.Manifold]:
+    vertex_sets = polytope_vertices_batch(systems)
+    return [mf.Manifold.hull_points(v) for v in (snap(vertex_sets) if snapped else vertex_sets)]
 
 
 def part_mesh(part: Part) -> Mesh:
@@ -36,7 +50,7 @@ def part_mesh(part: Part) -> Mesh:
                 np.column_stack([-e, -(np.asarray(lo) - MARGIN)]),
             ]
         )
-        holes = _hulls([np.vstack([h, clip]) for h in part.holes])
+        holes = _hulls([np.vstack([h, clip]) for h in part.holes], snapped=True)
         body = body - mf.Manifold.batch_boolean(holes, mf.OpType.Add)
     m = body.to_mesh64()
     return Mesh(np.asarray(m.vert_properties)[:, :3].copy(), np.asarray(m.tri_verts, np.int64))
