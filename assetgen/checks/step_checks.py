@@ -86,3 +86,26 @@ def check_steps(
             )
         out.append({"part": part.name, "clearance_m": seated, "insertion_min_distance_m": path})
     return out
+
+
+def check_printed(assembly: Assembly, meshes: Mapping[str, Mesh], offset: float) -> dict:
+    """The printed files (every hole's faces moved out by `offset`, m): each part one closed
+    body, and each step's seated gap measured on them, between its clearance (a gap that is
+    not a hole's, such as a bolt head's seat, does not move) and its clearance plus the
+    offset; CheckError otherwise. Returns the offset, the parts' topology and the gaps."""
+    parts = check_parts(meshes)
+    steps = []
+    for k, step in enumerate(assembly.steps):
+        part = assembly.part(step.part)
+        present = [fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
+        moving = fcl_object(meshes[part.name], part.pose)
+        seated = min(fcl_distance(moving, other) for other in present)
+        lo, hi = sorted((step.clearance, step.clearance + offset))
+        if not lo - CLEARANCE_TOLERANCE <= seated <= hi + CLEARANCE_TOLERANCE:
+            raise CheckError(
+                f"step {k + 1} ({part.name}): the printed files seat it {seated * 1e3:.6f} mm "
+                f"from the parts present, outside {lo * 1e3:g}-{hi * 1e3:g} mm (its clearance "
+                f"and the print offset {offset * 1e3:g} mm)"
+            )
+        steps.append({"part": part.name, "clearance_m": seated})
+    return {"print_offset_m": offset, "parts": parts, "steps": steps}

@@ -16,14 +16,14 @@ import os
 from pathlib import Path
 
 from assetgen import GENERATOR_VERSION
-from assetgen.checks.step_checks import check_parts, check_steps
+from assetgen.checks.step_checks import check_parts, check_printed, check_steps
 from assetgen.collision.carve import carve_part
 from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE as MJCF_FILE
 from assetgen.core.inline_mesh import stored
 from assetgen.core.stl import parse_stl_mm, stl_bytes
 from assetgen.core.timing import StepTimes, step
 from assetgen.dataset.module_writer import PEG_MASS, module_id, round_measures, staged, write_json
-from assetgen.families.part_mesh import part_mesh
+from assetgen.families.part_mesh import part_mesh, printed_part
 from assetgen.families.parts import Assembly
 from assetgen.formats.assembly_3mf import assembly_3mf_bytes
 from assetgen.formats.assembly_mjcf import assembly_mjcf
@@ -46,10 +46,16 @@ def write_assembly(
     seed: int,
     modules_dir: Path,
     times: StepTimes | None = None,
+    print_offset: float = 0.0,
 ) -> dict:
     """Check and write `assembly` (built from `params` of `family`) into
     `modules_dir/<id>/`; return its module.json. Raises ModuleFailure, leaving nothing
-    behind, when a check fails."""
+    behind, when a check fails.
+
+    print_offset (m, DatasetSpec's): the STL files and the 3MF carry every part's holes with
+    their faces moved out by this much more (printed_parts); each step's gap is measured on
+    them and recorded under `printed`. The checks, the MJCF and the USD are the simulation's
+    geometry's, as without it."""
     mid = module_id(seed)
     final = modules_dir / mid
     parts = (assembly.base, *assembly.parts)
@@ -62,11 +68,15 @@ def write_assembly(
             hashes[name] = hashlib.sha256(data).hexdigest()
             return data
 
-        meshes = {}
+        meshes, printed = {}, {}
         with step(times, "stl"):
             for p in parts:
                 name = f"{p.name}.stl"
-                meshes[p.name] = parse_stl_mm(write(name, stl_bytes(part_mesh(p))), name)
+                data = stl_bytes(part_mesh(p))
+                meshes[p.name] = parse_stl_mm(data if print_offset else write(name, data), name)
+                if print_offset:  # the printed part is the file; the checks keep the exact one
+                    data = write(name, stl_bytes(part_mesh(printed_part(p, print_offset))))
+                    printed[p.name] = parse_stl_mm(data, name)
         with step(times, "collision: decompose"):
             pieces = {p.name: stored(carve_part(p.solids, p.holes)) for p in parts}
         with step(times, "checks"):
@@ -74,6 +84,8 @@ def write_assembly(
                 "parts": check_parts(meshes),
                 "steps": check_steps(assembly, meshes, pieces),
             }
+            if print_offset:
+                printed_checks = check_printed(assembly, printed, print_offset)
         with step(times, "mass"):
             mass = {}
             for p in assembly.parts:
@@ -82,7 +94,9 @@ def write_assembly(
         with step(times, "3mf"):
             write(
                 THREEMF_FILE,
-                assembly_3mf_bytes([(p.name, meshes[p.name], p.print_turn) for p in parts]),
+                assembly_3mf_bytes(
+                    [(p.name, (printed or meshes)[p.name], p.print_turn) for p in parts]
+                ),
             )
         with step(times, "mjcf"):
             write(MJCF_FILE, assembly_mjcf(assembly, pieces, mass, name=MJCF_FILE))
@@ -123,6 +137,7 @@ def write_assembly(
                 for p in parts
             },
             "checks": checks,
+            **({"printed": printed_checks} if print_offset else {}),
             "files": dict(sorted(hashes.items())),
         }
         with step(times, "module.json"):

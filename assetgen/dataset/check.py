@@ -75,12 +75,14 @@ def _check_module(folder: Path, record: dict, geometry_checks: bool) -> str | No
         return _check_assembly(folder, meta)
     if geometry_checks:
         travel = meta["checks"]["insertion_travel_m"]
+        # module.stl is the printed module where a print offset was asked for
+        offset = meta.get("printed", {}).get("print_offset_m", 0.0)
         try:
             verify(
                 read_stl_mm(folder / "peg.stl"),
                 read_stl_mm(folder / "module.stl"),
                 Frame.from_json(meta["frames"]["design_pose"]),
-                meta["clearance"],
+                meta["clearance"] + offset,
                 travel,
             )
         except CheckError as e:
@@ -91,9 +93,11 @@ def _check_module(folder: Path, record: dict, geometry_checks: bool) -> str | No
 def _check_assembly(folder: Path, meta: dict) -> str | None:
     """The step checks again, on the files: the parts' STLs, the moving parts' pieces as
     the MJCF holds them, and the steps and poses rebuilt from the stored parameters."""
-    from assetgen.checks.step_checks import check_parts, check_steps
+    from assetgen.checks.step_checks import check_parts, check_printed, check_steps
     from assetgen.core.inline_mesh import ASSEMBLY_MJCF_FILE, part_pieces, read_inline_meshes
+    from assetgen.core.stl import parse_stl_mm, stl_bytes
     from assetgen.dataset.families import family
+    from assetgen.families.part_mesh import part_mesh
 
     try:
         rebuild = family(meta["family"]).rebuild
@@ -106,6 +110,12 @@ def _check_assembly(folder: Path, meta: dict) -> str | None:
         inline = read_inline_meshes(mjcf.read_bytes(), ASSEMBLY_MJCF_FILE)
         pieces = {n: part_pieces(inline, n) for n in names}
         check_parts(meshes)
+        if "printed" in meta:  # the STLs are printed parts: the steps on the exact surfaces
+            check_printed(assembly, meshes, meta["printed"]["print_offset_m"])
+            meshes = {
+                p.name: parse_stl_mm(stl_bytes(part_mesh(p)), p.name)
+                for p in (assembly.base, *assembly.parts)
+            }
         check_steps(assembly, meshes, pieces)
     except (CheckError, ValueError, KeyError) as e:
         return f"fails its checks: {e}"

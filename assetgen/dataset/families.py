@@ -48,13 +48,15 @@ class FamilyWriter:
         modules_dir: Path,
         formats: tuple[str, ...],
         times: StepTimes | None = None,
+        print_offset: float = 0.0,
     ) -> dict:
         """Write module `seed` under `config` into modules_dir/<id>/ and return its
         module.json; ModuleFailure (nothing written) when it cannot be built or fails a
-        check. `formats` are Table I's exporters (an assembly writes all of its files)."""
+        check. `formats` are Table I's exporters (an assembly writes all of its files);
+        print_offset: m the printed files' hole faces move out by (DatasetSpec's)."""
         writer = load_reference(self.spec.layout.writer)
         if self.spec.layout.name == "module":
-            return writer(seed, config, modules_dir, formats, times)
+            return writer(seed, config, modules_dir, formats, times, print_offset)
         from assetgen.dataset.module_writer import ModuleFailure
         from assetgen.params.module_params import ParamError
 
@@ -63,7 +65,7 @@ class FamilyWriter:
             assembly = self.spec.build(params)
         except ParamError as e:
             raise ModuleFailure(seed, str(e)) from e
-        return writer(self.spec.name, params, assembly, seed, modules_dir, times)
+        return writer(self.spec.name, params, assembly, seed, modules_dir, times, print_offset)
 
     def gaps(self, record: dict) -> list[float]:
         """The measured clearances (m) of a written module, from its module.json."""

@@ -61,11 +61,11 @@ CRASH_ONCE_ENV = "ASSETGEN_CRASH_ONCE"
 abruptly (os._exit) once, mid-module, if FILE does not exist yet (it creates it first)."""
 
 
-def _worker(args: tuple[int, dict, str, tuple[str, ...], str]) -> Result:
+def _worker(args: tuple[int, dict, str, tuple[str, ...], str, float]) -> Result:
     from assetgen.dataset.families import family
     from assetgen.dataset.module_writer import ModuleFailure
 
-    seed, config, modules_dir, formats, family_name = args
+    seed, config, modules_dir, formats, family_name, print_offset = args
     fam = family(family_name)
     crash = os.environ.get(CRASH_ONCE_ENV)
     if crash and crash.split(":", 1)[0] == str(seed):
@@ -78,7 +78,8 @@ def _worker(args: tuple[int, dict, str, tuple[str, ...], str]) -> Result:
             os._exit(1)
     times: StepTimes = {}
     try:
-        rec = fam.write(seed, fam.sampler.from_json(config), Path(modules_dir), formats, times)
+        config = fam.sampler.from_json(config)
+        rec = fam.write(seed, config, Path(modules_dir), formats, times, print_offset)
         return seed, manifest_line(rec), None, times
     except ModuleFailure as e:
         return seed, None, e.reason, times
@@ -320,7 +321,15 @@ def _run(
     a window in flight), so memory is bounded by the work in flight."""
     workers = workers or os.cpu_count() or 1
     jobs = (
-        (s, spec.config.to_json(), str(root / "modules"), spec.formats, spec.family) for s in seeds
+        (
+            s,
+            spec.config.to_json(),
+            str(root / "modules"),
+            spec.formats,
+            spec.family,
+            spec.print_offset,
+        )
+        for s in seeds
     )
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 

@@ -28,6 +28,7 @@ from assetgen.geometry.solids import (
     ModuleGeometry,
     build_module,
     insertion_travel,
+    printed_module,
 )
 from assetgen.params.module_params import ModuleParams, ParamError
 from assetgen.params.sampler import SamplerConfig, sample_params
@@ -92,6 +93,7 @@ def generate_module(
     modules_dir: Path,
     formats: tuple[str, ...] = (),
     times: StepTimes | None = None,
+    print_offset: float = 0.0,
 ) -> dict:
     """Sample module `seed` under `config` and write it (see write_module). A draw that the
     footprint rule refuses (FootprintError: the sleeve under a deep, tilted hole near the
@@ -105,7 +107,7 @@ def generate_module(
         except ParamError as e:
             raise ModuleFailure(seed, str(e)) from e
         try:
-            return write_module(params, seed, modules_dir, formats, times, draw=draw)
+            return write_module(params, seed, modules_dir, formats, times, draw, print_offset)
         except ModuleFailure as e:
             if not isinstance(e.__cause__, FootprintError) or draw == MAX_DRAWS - 1:
                 raise
@@ -139,9 +141,15 @@ def write_module(
     formats: tuple[str, ...] = (),
     times: StepTimes | None = None,
     draw: int = 0,
+    print_offset: float = 0.0,
 ) -> dict:
     """Build, check and write a module into `modules_dir/<id>/`; return its module.json
     (`draw`: which of the seed's draws `params` is, recorded when not the first).
+
+    print_offset (m, DatasetSpec's): module.stl and the 3MF carry the hole with its faces
+    moved out by this much more (solids.printed_module), checked at clearance + offset and
+    recorded under `printed`; the checks of the simulation's geometry, and its files, are as
+    without it.
 
     Raises ModuleFailure (never leaving files behind) if the module cannot be built or fails a
     check; `formats` names entries of EXPORTERS to run in addition to STL and 3MF. Each step
@@ -159,8 +167,12 @@ def write_module(
         tmp.mkdir(parents=True)
         ctx = ExportContext(tmp, geom, {}, times=times)
         with step(times, "stl+checks"):
+            printed = printed_module(geom, print_offset) if print_offset else None
             for name, mesh in (("peg.stl", geom.peg), ("module.stl", geom.module)):
-                ctx.meshes[name] = parse_stl_mm(ctx.write(name, stl_bytes(mesh)), name)
+                data = stl_bytes(mesh)
+                if printed is None or name == "peg.stl":
+                    ctx.write(name, data)
+                ctx.meshes[name] = parse_stl_mm(data, name)
             checks = verify(
                 ctx.meshes["peg.stl"],
                 ctx.meshes["module.stl"],
@@ -168,8 +180,17 @@ def write_module(
                 params.clearance,
                 insertion_travel(geom),
             )
+            if printed is not None:  # the printed hole, written in the simulation's place
+                data = ctx.write("module.stl", stl_bytes(printed))
+                printed_checks = verify(
+                    ctx.meshes["peg.stl"],
+                    parse_stl_mm(data, "module.stl"),
+                    geom.design_pose,
+                    params.clearance + print_offset,
+                    insertion_travel(geom),
+                )
         with step(times, "3mf"):
-            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, geom.module))
+            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, printed or geom.module))
         with step(times, "mass"):
             peg = peg_mass_properties(geom)
         ctx.record.update(
@@ -187,6 +208,11 @@ def write_module(
                 },
                 "peg": peg,
                 "checks": checks,
+                **(
+                    {}
+                    if printed is None
+                    else {"printed": {"print_offset_m": print_offset, **printed_checks}}
+                ),
             }
         )
         for f in formats:

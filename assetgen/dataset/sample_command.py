@@ -28,13 +28,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument(
         "--family",
         default="peg-in-hole",
-        help="what to generate: peg-in-hole (Table I, default) or profile-bolt (a profile "
-        "into a socket, then a bolt from the side)",
+        help="what to generate: peg-in-hole (Table I, default), profile (non-convex pegs) or "
+        "profile-bolt (a profile into a socket, then a bolt from the side); `assetgen families`",
     )
     s.add_argument(
         "--clearance-mm",
         type=float,
         help="clearance in mm (default: peg-in-hole 1.0; profile-bolt's profile 0.25)",
+    )
+    s.add_argument(
+        "--print-offset",
+        type=float,
+        metavar="MM",
+        help="move the printed files' (STL, 3MF) hole faces out by MM, your printer's hole error "
+        "(`assetgen gauge`); the simulation files keep the exact clearance",
     )
     s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
     s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
@@ -117,7 +124,7 @@ def sample_spec(args: argparse.Namespace):
             from assetgen.dataset.reader import Dataset
 
             spec = Dataset(root).spec
-        return root, spec
+        return root, _printed(spec, args)
     if args.out is None or args.n is None:
         raise DatasetError("give --n N --out DIR (and optionally --seed S), or --dataset NAME")
     try:
@@ -136,7 +143,15 @@ def sample_spec(args: argparse.Namespace):
         formats=formats,
         family=fam.name,
     )
-    return Path(args.out), spec
+    return Path(args.out), _printed(spec, args)
+
+
+def _printed(spec, args: argparse.Namespace):
+    """The spec with --print-offset (mm) set, where given (DatasetSpec.validate bounds it)."""
+    from dataclasses import replace
+
+    offset = getattr(args, "print_offset", None)
+    return spec if offset is None else replace(spec, print_offset=offset / 1000.0)
 
 
 def check_writable(root: Path) -> None:

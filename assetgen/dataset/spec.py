@@ -14,7 +14,7 @@ from assetgen.dataset.families import DEFAULT_FAMILY, family
 from assetgen.params.module_params import ParamError
 from assetgen.params.sampler import SamplerConfig
 
-SPEC_KEYS = {"name", "seed_start", "count", "config", "formats", "family"}
+SPEC_KEYS = {"name", "seed_start", "count", "config", "formats", "family", "print_offset_m"}
 DEFAULT_FORMATS = ("mjcf", "usd")
 SPECS_DIR = Path(__file__).resolve().parents[2] / "datasets"
 
@@ -39,7 +39,12 @@ class DatasetSpec:
     """Simulation formats written besides STL and 3MF (peg-in-hole; an assembly writes its
     MJCF and 3MF always)."""
     family: str = DEFAULT_FAMILY
-    """What the modules are (assetgen.dataset.families): `peg-in-hole` or `profile-bolt`."""
+    """What the modules are (assetgen.dataset.families): `peg-in-hole`, `profile`, ..."""
+    print_offset: float = 0.0
+    """m the printed files' (STL, 3MF) hole faces move out by, a printer's measured hole
+    error (`sample --print-offset MM`); the simulation files keep the exact clearance. In
+    (-c, c] for the finest clearance c: past it the printed peg would not fit, or the gap
+    would close. 0: the printed files are the simulation's geometry."""
 
     def validate(self) -> DatasetSpec:
         """Every field of the right type and within its bounds (the formats' names are
@@ -68,6 +73,13 @@ class DatasetSpec:
                 f"with a {sampler.__name__}"
             )
         self.config.validate()
+        c = self.config.finest_clearance
+        o = self.print_offset
+        if not (isinstance(o, int | float) and -c < o <= c):
+            raise DatasetError(
+                f"print offset {o * 1e3:g} mm: give at most the clearance, {c * 1e3:g} mm (more "
+                "and the printed peg would not fit), and more than minus it"
+            )
         return self
 
     @property
@@ -84,6 +96,8 @@ class DatasetSpec:
         }
         if self.family != DEFAULT_FAMILY:  # Table I specs keep their earlier form
             out["family"] = self.family
+        if self.print_offset:  # as do specs for the simulation's geometry alone
+            out["print_offset_m"] = self.print_offset
         return out
 
     @staticmethod
@@ -105,6 +119,7 @@ class DatasetSpec:
                 config=fam.sampler.from_json(d.get("config", {})),
                 formats=tuple(d.get("formats", DEFAULT_FORMATS)),
                 family=fam.name,
+                print_offset=d.get("print_offset_m", 0.0),
             ).validate()
         except (ParamError, ValueError) as e:
             raise DatasetError(f"{source}: {e}") from e

@@ -37,6 +37,15 @@ def _hulls(systems: list[np.ndarray], snapped: bool = False) -> list[mf.Manifold
     return [mf.Manifold.hull_points(v) for v in (snap(vertex_sets) if snapped else vertex_sets)]
 
 
+def printed_part(part: Part, offset: float) -> Part:
+    """The part with its holes' faces moved out by `offset` (m) more: for a printer whose
+    holes come out that much undersize (a hole's cap far up its axis moves too, harmlessly)."""
+    from dataclasses import replace
+
+    holes = tuple(np.column_stack([h[:, :3], h[:, 3] + offset]) for h in part.holes)
+    return replace(part, holes=holes)
+
+
 def part_mesh(part: Part) -> Mesh:
     """The part's closed surface in its own frame (see the module docstring)."""
     solids = _hulls(list(part.solids))

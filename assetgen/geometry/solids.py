@@ -190,6 +190,31 @@ def sleeve_half_spaces(
     )
 
 
+def _body(
+    p: ModuleParams, sleeve_planes: np.ndarray, bottom: np.ndarray, axis: np.ndarray
+) -> tuple[mf.Manifold, np.ndarray | None]:
+    """The plate with the sleeve under its hole, before the hole is cut, and the sleeve's
+    vertices (None where the hole is too shallow to need one)."""
+    t = p.plate_thickness
+    plate = mf.Manifold.cube([p.plate_size, p.plate_size, t], center=True).translate([0, 0, -t / 2])
+    floor_point = bottom - 0.5 * p.floor_thickness * axis
+    if interior_point(sleeve_planes, floor_point) is None:
+        return plate, None
+    sleeve = polytope_vertices(sleeve_planes)
+    return plate + mf.Manifold.hull_points(sleeve), sleeve
+
+
+def printed_module(geom: ModuleGeometry, offset: float) -> Mesh:
+    """The module with its hole's faces moved out by `offset` (m) more, every other face as
+    it is: the file to give a printer whose holes come out `offset` undersize."""
+    p = geom.params
+    capped = np.vstack([offset_planes(geom.hole_planes, offset), _cap(HOLE_CAP_Z)])
+    hole = mf.Manifold.hull_points(polytope_vertices(capped))
+    axis = geom.bottom.matrix()[:3, 2]
+    body, _ = _body(p, geom.sleeve_planes, np.array(geom.bottom.pos), axis)
+    return _to_mesh(body - hole)
+
+
 def build_module(p: ModuleParams) -> ModuleGeometry:
     """Build the peg, the module and the frames of `p` (validated first)."""
     p.validate()
@@ -225,12 +250,8 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
 
     sleeve_planes = sleeve_half_spaces(p, hole_planes, hole_vertices, design_m)
     hole = mf.Manifold.hull_points(hole_vertices)
-    plate = mf.Manifold.cube([p.plate_size, p.plate_size, t], center=True).translate([0, 0, -t / 2])
-    body = plate
-    floor_point = np.array(bottom.pos) - 0.5 * p.floor_thickness * axis
-    inside = interior_point(sleeve_planes, floor_point)
-    if inside is not None:
-        sleeve = polytope_vertices(sleeve_planes)
+    body, sleeve = _body(p, sleeve_planes, np.array(bottom.pos), axis)
+    if sleeve is not None:
         # a tilted, deep hole leans out: the sleeve hanging below the plate must stay inside
         # the plate's footprint, or the module is wider than its plate (and its neighbours')
         reach = np.abs(sleeve[:, :2]).max()
@@ -243,7 +264,6 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
                 f"{p.hole_y * 1e3:.1f}) mm, circumradius {p.circumradius * 1e3:.1f} mm): reduce "
                 "peg_height, hole_depth_fraction, the tilts or the hole offset"
             )
-        body = body + mf.Manifold.hull_points(sleeve)
     module = body - hole
     peg = peg_mesh(p)
     return ModuleGeometry(
