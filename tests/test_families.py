@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_the_folders_are_the_families():
-    assert registry.names() == ["peg-in-hole", "profile", "profile-bolt"]
+    assert registry.names() == ["multi-peg", "peg-in-hole", "profile", "profile-bolt"]
     for name in registry.names():
         fam = registry.get(name)
         assert isinstance(fam, Family) and fam.name == name and fam.summary
@@ -48,7 +48,7 @@ def test_every_sampler_field_is_documented():
 
 
 def test_an_unknown_family_is_refused_with_the_valid_ones():
-    with pytest.raises(ValueError, match=r"unknown family 'nope'; valid families: \['peg-in"):
+    with pytest.raises(ValueError, match=r"unknown family 'nope'; valid families: \['multi-peg"):
         registry.get("nope")
     p = subprocess.run(
         [sys.executable, "cli.py", "sample", "--family", "nope", "--n", "1", "--out", "x"],
@@ -56,7 +56,7 @@ def test_an_unknown_family_is_refused_with_the_valid_ones():
     )  # fmt: skip
     assert p.returncode == 2
     lines = p.stderr.strip().splitlines()
-    valid = "valid families: ['peg-in-hole', 'profile', 'profile-bolt']"
+    valid = "valid families: ['multi-peg', 'peg-in-hole', 'profile', 'profile-bolt']"
     assert len(lines) == 1 and valid in lines[0]
 
 
@@ -66,7 +66,7 @@ def test_the_families_command_lists_them():
     )
     assert p.returncode == 0, p.stderr
     listed = {f["name"]: f for f in json.loads(p.stdout)}
-    assert sorted(listed) == ["peg-in-hole", "profile", "profile-bolt"]
+    assert sorted(listed) == ["multi-peg", "peg-in-hole", "profile", "profile-bolt"]
     bolt = {q["name"]: q for q in listed["profile-bolt"]["parameters"]}
     assert bolt["profile_clearance"]["default"] == 0.25e-3
     assert "socket" in bolt["profile_clearance"]["doc"]
