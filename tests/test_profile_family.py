@@ -167,14 +167,15 @@ def test_it_is_a_registered_assembly_family() -> None:
 
 
 @pytest.mark.parametrize("seed", [2245, 2774])
-def test_holes_sharing_a_corner_print_as_one_closed_plate(seed) -> None:
-    """The hole's pieces enumerate a shared corner from different planes, 1e-17 m apart:
-    unless part_mesh snaps them together, these plates came out pinched there, open once
-    stored as float32 STL (8 of the test split's 1024)."""
+def test_pieces_sharing_a_corner_print_as_one_closed_body(seed) -> None:
+    """The hole's pieces (and the peg's) enumerate a shared corner from different planes,
+    1e-17 m apart: unless part_mesh snaps them together, these plates and pegs came out
+    pinched there, open once stored as float32 STL (9 of the test split's 1024)."""
     from assetgen.checks.module_checks import topology
     from assetgen.core.stl import parse_stl_mm, stl_bytes
     from assetgen.families.part_mesh import part_mesh
 
     asm = build_profile(ProfileSampler().sample(seed))
-    t = topology(parse_stl_mm(stl_bytes(part_mesh(asm.base)), "base.stl"))
-    assert t["watertight"] and t["winding_consistent"] and t["bodies"] == 1, t
+    for part in (asm.base, *asm.parts):
+        t = topology(parse_stl_mm(stl_bytes(part_mesh(part)), f"{part.name}.stl"))
+        assert t["watertight"] and t["winding_consistent"] and t["bodies"] == 1, part.name

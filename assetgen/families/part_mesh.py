@@ -18,7 +18,8 @@ from assetgen.geometry.triple_vertices import polytope_vertices_batch
 MARGIN = 0.01
 """m a hole is kept beyond the part's solids when clipped (enough to cut cleanly through)."""
 SNAP = 1e-10
-"""m: vertices of different holes nearer than this are made one. Holes that share a corner
+"""m: vertices of different holes (and of a part's solids that share corners) nearer than
+this are made one. Holes that share a corner
 (the convex pieces of one non-convex hole) enumerate it from different planes, a few 1e-17 m
 apart; left apart, the boolean pinches the surface there, which the float32 STL folds into
 an open one. Far below the files' 10 nm resolution; no earlier file changes (tested)."""
@@ -48,7 +49,7 @@ def printed_part(part: Part, offset: float) -> Part:
 
 def part_mesh(part: Part) -> Mesh:
     """The part's closed surface in its own frame (see the module docstring)."""
-    solids = _hulls(list(part.solids))
+    solids = _hulls(list(part.solids), snapped=part.shared_corners)
     body = mf.Manifold.batch_boolean(solids, mf.OpType.Add)
     if part.holes:
         lo, hi = body.bounding_box()[:3], body.bounding_box()[3:]

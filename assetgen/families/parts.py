@@ -31,6 +31,9 @@ class Part:
              moving part: its design pose, every gap at its clearance).
     print_turn : (3, 3) rotation of the part frame that prints it without supports (the
              3MF turns the part by it and rests it on the bed).
+    shared_corners : the solids are pieces of one exact partition and meet at corners of
+             it: part_mesh makes each such corner one point (assetgen.families.part_mesh.snap)
+             before the union. False (every earlier family) leaves the solids as they are.
     """
 
     name: str
@@ -38,6 +41,7 @@ class Part:
     holes: tuple[np.ndarray, ...] = ()
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
     print_turn: np.ndarray = field(default_factory=lambda: np.eye(3))
+    shared_corners: bool = False
 
 
 @dataclass(frozen=True)

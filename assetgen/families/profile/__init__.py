@@ -225,7 +225,7 @@ def build_profile(p: ProfileParams) -> Assembly:
          [0, 0, 1, 0.0], [0, 0, -1, PLATE_THICKNESS]], dtype=float,
     )  # fmt: skip
     base = Part("base", (plate, sleeve(p, offset, design)), holes)
-    peg = Part("peg", peg_solids, (), design)
+    peg = Part("peg", peg_solids, (), design, shared_corners=True)
     step = Step(
         "peg",
         p.clearance,
