@@ -23,6 +23,12 @@ def add_parser(bench: argparse._SubParsersAction) -> None:
     p.add_argument("--n", type=int, default=256, help="modules (default 256)")
     p.add_argument("--workers", type=int, default=None, help="processes (default: one a core)")
     p.add_argument("--dir", type=Path, default=None, help="scratch folder (default: cwd)")
+    p.add_argument(
+        "--family",
+        default="peg-in-hole",
+        help="the families to time, comma-separated, one after the other in this run "
+        "(default: peg-in-hole, Table I; e.g. peg-in-hole,profile,multi-peg)",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON last")
     p.set_defaults(func=main)
 
@@ -33,14 +39,25 @@ def main(args: argparse.Namespace) -> int:
 
     try:
         check_numbers(args, NUMBERS)  # before the scratch folder is made
-        result = bench_assets(n=args.n, workers=args.workers, where=args.dir)
+        from assetgen.dataset.families import family
+
+        names = [family(f.strip()).name for f in args.family.split(",")]  # all, before any run
+        results = {f: bench_assets(args.n, args.workers, args.dir, f) for f in names}
     except ValueError as e:
         return print_error(str(e))
-    print_figures("bench assets", result, args.json)
+    for name, result in results.items():
+        print_figures(f"bench assets ({name})", result, args.json)
+    if len(results) > 1:  # the same sitting: each family's time a module against the first's
+        first = next(iter(results.values()))["modules_per_s"]
+        for name, result in results.items():
+            print(f"{name}: {result['modules_per_s']:.1f} modules/s, "
+                  f"{first / result['modules_per_s']:.2f}x {names[0]}'s time a module")  # fmt: skip
     return 0
 
 
-def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = None) -> dict:
+def bench_assets(
+    n: int = 256, workers: int | None = None, where: Path | None = None, fam: str = "peg-in-hole"
+) -> dict:
     """Generate `n` modules (all formats, all checks) into a temporary folder, then re-run.
 
     The folder is made under `where` (default: the current directory, where datasets go;
@@ -49,7 +66,9 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
     Returns modules_per_s, seconds and cached_rerun_s among others, and step_ms: the
     wall milliseconds per module of each pipeline step (summed over the workers, so they add
     up to about workers x seconds / modules), which shows which step a regression is in.
+    fam: the family generated (its sampler's defaults).
     """
+    from assetgen.dataset.families import family
     from assetgen.dataset.generate import generate
     from assetgen.dataset.spec import DatasetSpec
     from assetgen.formats.registry import available_formats
@@ -63,7 +82,9 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
             Path(where).mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise ValueError(f"--dir {where}: cannot make the folder ({e.strerror})") from None
-    spec = DatasetSpec("bench", 0, n, SamplerConfig(), available_formats())
+    writer = family(fam)
+    config = SamplerConfig() if writer.name == "peg-in-hole" else writer.sampler()
+    spec = DatasetSpec("bench", 0, n, config, available_formats(), family=writer.name)
     with tempfile.TemporaryDirectory(dir=where or Path.cwd(), prefix=".bench-") as tmp:
         root = Path(tmp) / "bench"
         t0 = time.perf_counter()
@@ -81,6 +102,7 @@ def bench_assets(n: int = 256, workers: int | None = None, where: Path | None = 
         "seconds": first,
         "modules_per_s": n / first,
         "cached_rerun_s": cached,
+        "family": writer.name,
         "formats": ",".join(spec.formats),
         "step_ms": step_ms,
         "step_ms_total": sum(step_ms.values()),

@@ -145,3 +145,11 @@ def test_the_layout_not_the_name_says_what_a_family_builds(toy, tmp_path, capsys
 
 def test_registry_after_the_toy_is_gone():
     assert "cube-peg" not in registry.names()
+
+
+def test_bench_assets_times_any_family(tmp_path) -> None:
+    from assetgen.bench import bench_assets
+
+    result = bench_assets(2, 1, tmp_path, "multi-peg")
+    assert result["family"] == "multi-peg" and result["failed"] == 0
+    assert result["modules_per_s"] > 0 and "checks" in result["step_ms"]
