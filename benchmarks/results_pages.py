@@ -357,6 +357,47 @@ def assembly_table() -> str:
     return "\n".join(rows) + "\n"
 
 
+FAMILIES: tuple[tuple[str, str], ...] = (
+    ("scripted expert", "scripted"),
+    ("direct expert", "scripted-direct"),
+    ("`sac-teacher-free`, zero-shot", "sac-teacher-free"),
+    ("`sac-direct-bc`, zero-shot", "sac-direct-bc"),
+    ("`dreamer-direct-bc`, zero-shot", "dreamer-direct-bc"),
+)
+"""The families page: (agent, its name in docs/results/families/<name>_<split>.json)."""
+FAMILY_SPLITS = ("profile_test",)
+"""The test splits of the families beyond Table I, each a row per agent whose file exists."""
+
+
+def families_table() -> str:
+    """The agents on each family's test split (docs/results/families/table.md), from the
+    evaluation files (`assetgen eval ... --dataset <split> --attempts 1`)."""
+    import json
+
+    rows = [
+        "| agent | family | split (clearance) | modules × attempts | success (median time) "
+        "| failed / truncated | wall time |\n|---|---|---|---|---|---|---|"
+    ]
+    for split in FAMILY_SPLITS:
+        for agent, name in FAMILIES:
+            path = RESULTS / "families" / f"{name}_{split}.json"
+            if not path.exists():
+                continue
+            d = json.loads(path.read_text())
+            (stage,) = d["stages"]  # a family of one step
+            gap = " / ".join(f"{1e3 * c:g}" for c in stage["clearance_m"])
+            median = stage["median_time_to_success_s"]
+            rate = f"{100 * stage['success_rate']:.2f} % ({median:.2f} s)"
+            rows.append(
+                f"| {agent} | {d['family']} | {d['dataset']} ({gap} mm) "
+                f"| {d['assemblies']} × {d['attempts']} "
+                f"| {rate} "
+                f"| {100 * stage['failure_rate']:.2f} / {100 * stage['truncation_rate']:.2f} % "
+                f"| {d['seconds']:.0f} s |"
+            )
+    return "\n".join(rows) + "\n"
+
+
 def superseded_variants(page: Page) -> frozenset[str]:
     """The variant names of the page's filed Table III lanes whose row a later candidate
     superseded (benchmarks/table3.py's Row.superseded_by): the full table keeps them, the
@@ -431,6 +472,7 @@ def main(argv: list[str] | None = None) -> int:
     pages = (
         ("referee", referee_table),
         ("assembly", assembly_table),
+        ("families", families_table),
         ("robot", robot_table),
         ("takeoff", takeoff_table),
     )

@@ -74,6 +74,22 @@ def test_assembly_page_is_generated_from_its_files() -> None:
         assert doc.get("physics_version") == PHYSICS_VERSION, f
 
 
+def test_families_page_is_generated_from_its_files() -> None:
+    from benchmarks.results_pages import FAMILIES, FAMILY_SPLITS, families_table
+
+    table = RESULTS / "families" / "table.md"
+    assert table.exists() and table.read_text() == families_table(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+    files = sorted((RESULTS / "families").glob("*.json"))
+    assert files, "the families page has no evaluation file"
+    named = {f"{name}_{split}.json" for _, name in FAMILIES for split in FAMILY_SPLITS}
+    for f in files:  # each file is a row: named for its agent and split, the current physics
+        doc = json.loads(f.read_text())
+        assert f.name in named and f.stem.endswith("_" + doc["dataset"]), f
+        assert doc["family"] != "peg-in-hole" and doc.get("physics_version") == PHYSICS_VERSION, f
+
+
 def test_robot_page_is_generated_from_its_files() -> None:
     from benchmarks.results_pages import (
         ROBOT_AGENTS,
