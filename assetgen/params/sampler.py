@@ -155,3 +155,42 @@ def sample_params(config: SamplerConfig, seed: int, draw: int = 0) -> ModulePara
         hole_yaw=u(config.hole_yaw),
         clearance=config.clearance,
     )
+
+
+def check_ranges(config, skip: tuple[str, ...] = ()) -> None:
+    """ParamError naming the first (low, high) field of a sampler config (a dataclass) that is
+    not two finite numbers, low <= high; fields named in `skip` are not ranges."""
+    for f in fields(config):
+        v = getattr(config, f.name)
+        if (
+            f.name not in skip
+            and isinstance(v, tuple)
+            and not (len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1])
+        ):
+            raise ParamError(
+                f"sampler range {f.name} = {v} must be two finite numbers, low <= high"
+            )
+
+
+class OneClearance:
+    """What a family's sampler config (a frozen dataclass with a `clearance` field, m) whose
+    modules have one clearance shares: finest_clearance, with_clearance, to_json and
+    from_json (the subclass names itself in WHAT, for the errors)."""
+
+    WHAT = "sampler"
+
+    @property
+    def finest_clearance(self) -> float:
+        """The finest clearance of a module, m (its only one)."""
+        return self.clearance
+
+    def with_clearance(self, clearance: float):
+        """This config with the clearance set, m."""
+        return replace(self, clearance=clearance)
+
+    def to_json(self) -> dict:
+        return config_to_json(self)
+
+    @classmethod
+    def from_json(cls, d: dict):
+        return config_from_json(cls, d, cls.WHAT).validate()

@@ -17,7 +17,7 @@ the carrier exactly as it observes a peg: the 18-D observation and every agent c
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
@@ -28,7 +28,7 @@ from assetgen.families.profile import PLATE_SIZE, PLATE_THICKNESS, REACH, frames
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.geometry.polytope import polytope_vertices
 from assetgen.params.module_params import ParamError
-from assetgen.params.sampler import config_from_json, config_to_json
+from assetgen.params.sampler import OneClearance, check_ranges
 
 DEG = math.pi / 180
 CARRIER = 0.008
@@ -191,7 +191,7 @@ def build_multi_peg(p: MultiPegParams) -> Assembly:
 
 
 @dataclass(frozen=True)
-class MultiPegSampler:
+class MultiPegSampler(OneClearance):
     """Uniform ranges of the sampled parameters (SI units, angles in rad)."""
 
     pegs: tuple[int, int] = (2, 4)
@@ -220,26 +220,12 @@ class MultiPegSampler:
     clearance: float = 1e-3
     """Each peg to its hole, m (fixed; `--clearance-mm` sets it)."""
 
-    @property
-    def finest_clearance(self) -> float:
-        """The finest clearance of a module, m (its only one)."""
-        return self.clearance
-
-    def with_clearance(self, clearance: float) -> MultiPegSampler:
-        """This config with the clearance set, m."""
-        return replace(self, clearance=clearance)
+    WHAT = "multi-peg sampler"
 
     def validate(self) -> MultiPegSampler:
         """Ranges of two finite numbers low <= high, probabilities in [0, 1], and the first
         draws build."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, tuple) and not (
-                len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1]
-            ):
-                raise ParamError(
-                    f"sampler range {f.name} = {v} must be two finite numbers, low <= high"
-                )
+        check_ranges(self)
         for name in ("circle_probability", "line_probability"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ParamError(f"{name} = {getattr(self, name)} must be in [0, 1]")
@@ -251,13 +237,6 @@ class MultiPegSampler:
             except ParamError as e:
                 raise ParamError(f"sampler draws an unbuildable multi-peg module: {e}") from e
         return self
-
-    def to_json(self) -> dict:
-        return config_to_json(self)
-
-    @staticmethod
-    def from_json(d: dict) -> MultiPegSampler:
-        return config_from_json(MultiPegSampler, d, "multi-peg sampler").validate()
 
     def sample(self, seed: int) -> MultiPegParams:
         """The parameters of `seed` (numpy's PCG64, drawn in a fixed order). A placement

@@ -38,7 +38,7 @@ from assetgen.geometry.polygon_offset import (
 )
 from assetgen.geometry.polytope import transform_planes
 from assetgen.params.module_params import ParamError
-from assetgen.params.sampler import config_from_json, config_to_json
+from assetgen.params.sampler import OneClearance, check_ranges
 
 DEG = math.pi / 180
 PLATE_SIZE = 0.15
@@ -237,7 +237,7 @@ def build_profile(p: ProfileParams) -> Assembly:
 
 
 @dataclass(frozen=True)
-class ProfileSampler:
+class ProfileSampler(OneClearance):
     """Uniform ranges of the sampled parameters (SI units, angles in rad); the placement's
     are Table I's."""
 
@@ -280,14 +280,7 @@ class ProfileSampler:
     clearance: float = 1e-3
     """Peg to hole, m (fixed; `--clearance-mm` sets it)."""
 
-    @property
-    def finest_clearance(self) -> float:
-        """The finest clearance of a module, m (its only one)."""
-        return self.clearance
-
-    def with_clearance(self, clearance: float) -> ProfileSampler:
-        """This config with the clearance set, m."""
-        return replace(self, clearance=clearance)
+    WHAT = "profile sampler"
 
     def validate(self) -> ProfileSampler:
         """Known shapes, ranges of two finite numbers low <= high, a clearance the features
@@ -295,16 +288,7 @@ class ProfileSampler:
         unknown = sorted(set(self.shapes) - set(SHAPES))
         if unknown or not self.shapes:
             raise ParamError(f"shapes {list(self.shapes)}: give some of {list(SHAPES)}")
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if (
-                f.name != "shapes"
-                and isinstance(v, tuple)
-                and not (len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1])
-            ):
-                raise ParamError(
-                    f"sampler range {f.name} = {v} must be two finite numbers, low <= high"
-                )
+        check_ranges(self, skip=("shapes",))
         if not 0.0 <= self.flat_probability <= 1.0:
             raise ParamError(f"flat_probability = {self.flat_probability} must be in [0, 1]")
         if not 0 < self.clearance < MIN_FEATURE / 2:
@@ -320,13 +304,6 @@ class ProfileSampler:
                 except (ParamError, ValueError) as e:
                     raise ParamError(f"sampler draws an unbuildable {shape} module: {e}") from e
         return self
-
-    def to_json(self) -> dict:
-        return config_to_json(self)
-
-    @staticmethod
-    def from_json(d: dict) -> ProfileSampler:
-        return config_from_json(ProfileSampler, d, "profile sampler").validate()
 
     def section(self, rng: np.random.Generator, shape: str, size: float) -> np.ndarray:
         """A section of `shape` and outer radius `size`, its other parameters drawn."""
