@@ -47,6 +47,14 @@ def check_parts(meshes: Mapping[str, Mesh]) -> dict:
     return out
 
 
+def _seated(assembly: Assembly, meshes: Mapping[str, Mesh], k: int):
+    """Step k's part, the parts present (fcl objects, posed) and the part's seated gap (m)."""
+    part = assembly.part(assembly.steps[k].part)
+    present = [fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
+    moving = fcl_object(meshes[part.name], part.pose)
+    return part, present, min(fcl_distance(moving, other) for other in present)
+
+
 def check_steps(
     assembly: Assembly,
     meshes: Mapping[str, Mesh],
@@ -60,10 +68,7 @@ def check_steps(
     """
     out = []
     for k, step in enumerate(assembly.steps):
-        part = assembly.part(step.part)
-        present = [fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
-        moving = fcl_object(meshes[part.name], part.pose)
-        seated = min(fcl_distance(moving, other) for other in present)
+        part, present, seated = _seated(assembly, meshes, k)
         start = part.pose.copy()
         start[:3, 3] += step.travel * _axis(step.bottom)
         path = min(
@@ -96,10 +101,7 @@ def check_printed(assembly: Assembly, meshes: Mapping[str, Mesh], offset: float)
     parts = check_parts(meshes)
     steps = []
     for k, step in enumerate(assembly.steps):
-        part = assembly.part(step.part)
-        present = [fcl_object(meshes[p.name], p.pose) for p in assembly.present_at(k)]
-        moving = fcl_object(meshes[part.name], part.pose)
-        seated = min(fcl_distance(moving, other) for other in present)
+        part, _, seated = _seated(assembly, meshes, k)
         lo, hi = sorted((step.clearance, step.clearance + offset))
         if not lo - CLEARANCE_TOLERANCE <= seated <= hi + CLEARANCE_TOLERANCE:
             raise CheckError(
