@@ -71,6 +71,7 @@ def test_bad_parameters_are_named() -> None:
 
 def test_a_dataset_is_written_checked_and_inserted_by_the_expert(tmp_path) -> None:
     from assetgen.dataset.check import check_dataset
+    from assetgen.dataset.families import family
     from assetgen.dataset.generate import generate
     from assetgen.dataset.spec import DatasetSpec
     from evaluation.sequence import evaluate_assembly_dataset
@@ -83,3 +84,18 @@ def test_a_dataset_is_written_checked_and_inserted_by_the_expert(tmp_path) -> No
     assert check_dataset(tmp_path / "m").ok
     res = evaluate_assembly_dataset(tmp_path / "m", default_expert_action, 1)
     assert res["sequence"]["success_rate"] == 1.0
+    # the task (training) takes a one-step family's modules as they are
+    from sim.assets.loading import AssetError, load_dataset
+    from sim.env import PegInHoleVecEnv
+
+    assets = load_dataset(tmp_path / "m")
+    assert [a.id for a in assets] == ["000000/carrier", "000001/carrier", "000002/carrier"]
+    env = PegInHoleVecEnv(assets, num_envs=3, nthread=1)
+    obs = env.reset(seed=0)
+    for _ in range(50):
+        obs = env.step(default_expert_action(obs))[0]
+    assert np.isfinite(obs).all()
+    bolts = DatasetSpec("b", 0, 1, family="profile-bolt", config=family("profile-bolt").sampler())
+    generate(tmp_path / "b", bolts, workers=1, progress=False)
+    with pytest.raises(AssetError, match="2 steps; the task takes one-step families"):
+        load_dataset(tmp_path / "b")
