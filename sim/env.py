@@ -761,19 +761,27 @@ def make_train_env(
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
     task on the device). near_starts, inside_starts, inside_starts_until: TaskConfig's;
     axis_shaping: TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None:
-    it floats); readings: what it adds to the observation (TaskConfig.readings)."""
-    root, config = train_config(
-        dataset,
-        curriculum_steps,
-        keep_physics,
-        curriculum_success,
-        module_replay,
-        near_starts,
-        axis_shaping,
-        readings,
-        inside_starts,
-        inside_starts_until,
-    )
+    it floats); readings: what it adds to the observation (TaskConfig.readings). dataset
+    may join several with `+` (`train+profile_train+multi_peg_train`): their modules train
+    together, as one set, where their files carry the same physics."""
+    options = (curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts,
+               axis_shaping, readings, inside_starts, inside_starts_until)  # fmt: skip
+    parts = [train_config(name, *options) for name in str(dataset).split("+")]
+    root, config = parts[0]
+    if len(parts) > 1:
+        if any(c.physics != config.physics for _, c in parts):
+            raise ValueError(
+                f"--dataset {dataset}: its datasets were written for different physics; "
+                "regenerate the older ones (`assetgen sample --dataset NAME --overwrite`)"
+            )
+        root = [m for r, _ in parts for m in load_dataset(r)]
+        ids = [m.id for m in root]
+        if len(set(ids)) < len(ids):
+            raise ValueError(
+                f"--dataset {dataset}: two of its datasets hold modules of the same id; join "
+                "datasets of different families (Table I's ids are 000000, a profile's "
+                "000000/peg)"
+            )
     return PegInHoleVecEnv(
         root,
         num_envs,

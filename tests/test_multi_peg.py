@@ -95,6 +95,15 @@ def test_a_dataset_is_written_checked_and_inserted_by_the_expert(tmp_path) -> No
     for _ in range(50):
         obs = env.step(default_expert_action(obs))[0]
     assert np.isfinite(obs).all()
+    # and joined with Table I's modules: one training set (`--dataset train+multi_peg_train`)
+    from sim.env import make_train_env
+    from tests.test_sim_common import sim_dataset
+
+    mixed = make_train_env(f"{sim_dataset()}+{tmp_path / 'm'}", 4, 0)
+    assert mixed.module_ids[-3:] == [a.id for a in assets]
+    assert len(mixed.module_ids) == len(load_dataset(sim_dataset())) + 3
+    with pytest.raises(ValueError, match="same id"):
+        make_train_env(f"{tmp_path / 'm'}+{tmp_path / 'm'}", 4, 0)
     bolts = DatasetSpec("b", 0, 1, family="profile-bolt", config=family("profile-bolt").sampler())
     generate(tmp_path / "b", bolts, workers=1, progress=False)
     with pytest.raises(AssetError, match="2 steps; the task takes one-step families"):
