@@ -40,7 +40,8 @@ import numpy as np
 from assetgen.core.mujoco_config import physics_for, physics_from_record
 from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
-from sim.assets.loading import ModuleAsset, check_physics, dataset_root, load_dataset
+from sim.assets.loading import ModuleAsset, check_physics, dataset_root
+from sim.assets.task_modules import load_modules
 from sim.engines.base import EngineOptions
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
@@ -101,7 +102,7 @@ class PegInHoleVecEnv:
         self.robot = None if holder is None else holder.name
         """The robot holding the peg (sim/robots/registry.py), or None: the floating peg."""
         self.cfg = (config or TaskConfig()).validate()
-        modules = dataset if isinstance(dataset, list) else load_dataset(dataset, module_ids)
+        modules = dataset if isinstance(dataset, list) else load_modules(dataset, module_ids)
         if not modules:
             raise ValueError("no modules given: pass a dataset folder or a non-empty list")
         self.refused: dict[str, str] = {}
@@ -774,7 +775,7 @@ def make_train_env(
                 f"--dataset {dataset}: its datasets were written for different physics; "
                 "regenerate the older ones (`assetgen sample --dataset NAME --overwrite`)"
             )
-        root = [m for r, _ in parts for m in load_dataset(r)]
+        root = [m for r, _ in parts for m in load_modules(r)]
         ids = [m.id for m in root]
         if len(set(ids)) < len(ids):
             raise ValueError(
@@ -843,7 +844,7 @@ def make_eval_env(
         if modules < 1:
             raise ValueError(f"modules = {modules}: evaluate at least 1 module")
         ids = Dataset(root).ids[:modules]
-    modules = load_dataset(root, ids)
+    modules = load_modules(root, ids)
     if num_envs is not None and num_envs < len(modules):
         raise ValueError(
             f"num_envs = {num_envs} is less than the dataset's {len(modules)} modules: a "

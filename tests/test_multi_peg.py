@@ -85,10 +85,11 @@ def test_a_dataset_is_written_checked_and_inserted_by_the_expert(tmp_path) -> No
     res = evaluate_assembly_dataset(tmp_path / "m", default_expert_action, 1)
     assert res["sequence"]["success_rate"] == 1.0
     # the task (training) takes a one-step family's modules as they are
-    from sim.assets.loading import AssetError, load_dataset
+    from sim.assets.loading import AssetError
+    from sim.assets.task_modules import load_modules
     from sim.env import PegInHoleVecEnv
 
-    assets = load_dataset(tmp_path / "m")
+    assets = load_modules(tmp_path / "m")
     assert [a.id for a in assets] == ["000000/carrier", "000001/carrier", "000002/carrier"]
     env = PegInHoleVecEnv(assets, num_envs=3, nthread=1)
     obs = env.reset(seed=0)
@@ -101,10 +102,10 @@ def test_a_dataset_is_written_checked_and_inserted_by_the_expert(tmp_path) -> No
 
     mixed = make_train_env(f"{sim_dataset()}+{tmp_path / 'm'}", 4, 0)
     assert mixed.module_ids[-3:] == [a.id for a in assets]
-    assert len(mixed.module_ids) == len(load_dataset(sim_dataset())) + 3
+    assert len(mixed.module_ids) == len(load_modules(sim_dataset())) + 3
     with pytest.raises(ValueError, match="same id"):
         make_train_env(f"{tmp_path / 'm'}+{tmp_path / 'm'}", 4, 0)
     bolts = DatasetSpec("b", 0, 1, family="profile-bolt", config=family("profile-bolt").sampler())
     generate(tmp_path / "b", bolts, workers=1, progress=False)
     with pytest.raises(AssetError, match="2 steps; the task takes one-step families"):
-        load_dataset(tmp_path / "b")
+        load_modules(tmp_path / "b")

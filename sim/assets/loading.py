@@ -290,25 +290,6 @@ def dataset_root(dataset: str | Path) -> Path:
         raise ValueError(str(e)) from e
 
 
-def _single_steps(ds, dirs: list[Path]) -> list[ModuleAsset]:
-    """The one step of each assembly in `dirs` (sim.assets.assembly, which checks the files it
-    reads against the manifest); AssetError for a family whose assemblies have more steps,
-    which run in sequence (`assetgen eval`), not as the task."""
-    from sim.assets.assembly import AssemblyStages
-
-    out = []
-    for d in dirs:
-        stages = AssemblyStages(d)
-        if len(stages.steps) != 1:
-            raise AssetError(
-                f"{ds.root}: a {ds.spec.family} assembly has {len(stages.steps)} steps; the task "
-                "takes one-step families (profile, multi-peg); `assetgen eval` plays assemblies "
-                "of several steps in sequence"
-            )
-        out.append(stages.stage(0))
-    return out
-
-
 def load_dataset(
     root: Path | str, ids: list[str] | None = None, *, verify: bool = True
 ) -> list[ModuleAsset]:
@@ -330,8 +311,6 @@ def load_dataset(
             f"{root} holds no finished modules; generate some with "
             "`assetgen sample --n N --out DIR`"
         )
-    if ds.spec.family != "peg-in-hole":  # an assembly family: its one step is the task
-        return _single_steps(ds, dirs)
     if verify_skipped(verify):
         return [load_module(p) for p in dirs]
     done = _verified_set(ds)
