@@ -19,12 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from assetgen.params.module_params import ParamError
+
 PARALLEL = 1e-12
 """Two edges whose unit directions' cross product is below this are collinear."""
 
 
-class OffsetError(ValueError):
-    """The polygon cannot be offset by that distance and stay an offset of it."""
+class OffsetError(ParamError):
+    """The polygon cannot be offset by that distance and stay an offset of it (a parameter
+    error: the user hears it in one line, as every ParamError)."""
 
 
 def signed_area(poly: np.ndarray) -> float:
