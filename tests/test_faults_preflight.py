@@ -44,13 +44,15 @@ def _commands() -> dict[str, tuple[list[str], dict[str, Bound], set[str]]]:
     from assetgen import bench as assets_bench
     from assetgen.dataset import check_command, sample_command
     from assetgen.physics import arguments as physics
+    from assetgen.printing import command as gauge_command
     from evaluation import command as eval_command
     from preview import command as view_command
     from rl import commands as rl_commands
     from sim.bench import command as sim_bench
 
     return {
-        "sample": (["sample"], sample_command.NUMBERS, {"clearance_mm"}),
+        "sample": (["sample"], sample_command.NUMBERS, {"clearance_mm", "print_offset"}),
+        "gauge": (["gauge"], gauge_command.NUMBERS, set()),
         "check": (["check"], check_command.NUMBERS, set()),
         "physics": (["physics"], physics.NUMBERS, set()),
         "eval": (["eval"], eval_command.NUMBERS, set()),
@@ -78,7 +80,7 @@ def _subparsers(parser) -> dict[str, object]:
 
 def test_every_numeric_flag_of_every_command_has_bounds() -> None:
     """A numeric flag added to a command without bounds fails here (clearance_mm is the
-    sampler config's, which validates it)."""
+    sampler config's, which validates it; print_offset the dataset spec's)."""
     commands = _commands()
     for name, sub in _subparsers(cli.build_parser()).items():
         numeric = {a.dest for a in sub._actions if a.type in (int, float)}
@@ -113,6 +115,7 @@ def _argv(name: str, tmp_path: Path) -> list[str]:
     ds, out = str(tmp_path / "no-dataset"), str(tmp_path / "out")
     return {
         "sample": ["sample", "--n", "1", "--out", out, "--quiet"],
+        "gauge": ["gauge", "--out", out],
         "check": ["check", ds],
         "physics": ["physics", ds],
         "eval": ["eval", "--agent", "scripted", "--dataset", ds, "--out", out + ".json"],

@@ -5,6 +5,12 @@ from __future__ import annotations
 
 import argparse
 
+from assetgen.core.preflight import positive
+
+NUMBERS = {"diameter_mm": positive("give the pegs' diameter in mm, e.g. 10")}
+"""The bounds of gauge's numeric flags (assetgen.core.preflight); --clearances-mm is a list,
+which GaugeParams validates."""
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     g = sub.add_parser("gauge", help="write a printable clearance gauge (holes 0.1-1.0 mm)")
@@ -42,6 +48,7 @@ def main(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from assetgen.core.console_output import print_error
+    from assetgen.core.preflight import check_numbers
     from assetgen.dataset.assembly_writer import write_assembly
     from assetgen.dataset.module_writer import ModuleFailure, module_id
     from assetgen.params.module_params import ParamError
@@ -49,6 +56,7 @@ def main(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     try:
+        check_numbers(args, NUMBERS)
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             raise ValueError(f"--out {out}: exists and is not an empty folder; give a new one")
         params = replace(
