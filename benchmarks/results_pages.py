@@ -365,7 +365,7 @@ FAMILIES: tuple[tuple[str, str], ...] = (
     ("`dreamer-direct-bc`, zero-shot", "dreamer-direct-bc"),
 )
 """The families page: (agent, its name in docs/results/families/<name>_<split>.json)."""
-FAMILY_SPLITS = ("profile_test",)
+FAMILY_SPLITS = ("profile_test", "multi_peg_test")
 """The test splits of the families beyond Table I, each a row per agent whose file exists."""
 
 
