@@ -72,7 +72,6 @@ def bench_assets(
     from assetgen.dataset.generate import generate
     from assetgen.dataset.spec import DatasetSpec
     from assetgen.formats.registry import available_formats
-    from assetgen.params.sampler import SamplerConfig
 
     if n < 1:
         raise ValueError(f"--n {n}: give at least 1 module to time")
@@ -83,8 +82,7 @@ def bench_assets(
         except OSError as e:
             raise ValueError(f"--dir {where}: cannot make the folder ({e.strerror})") from None
     writer = family(fam)
-    config = SamplerConfig() if writer.name == "peg-in-hole" else writer.sampler()
-    spec = DatasetSpec("bench", 0, n, config, available_formats(), family=writer.name)
+    spec = DatasetSpec("bench", 0, n, writer.sampler(), available_formats(), family=writer.name)
     with tempfile.TemporaryDirectory(dir=where or Path.cwd(), prefix=".bench-") as tmp:
         root = Path(tmp) / "bench"
         t0 = time.perf_counter()

@@ -306,11 +306,8 @@ class PegInHoleVecEnv:
     def inside_share(self) -> float:
         """The share of the next episodes that start inside the hole (TaskConfig.inside_starts;
         0 once the take-off gate has closed, or without them)."""
-        if self.cfg.inside_starts is None or not (
-            self.inside_gate is None or self.inside_gate.open
-        ):
-            return 0.0
-        return self.cfg.inside_starts
+        closed = self.inside_gate is not None and not self.inside_gate.open
+        return 0.0 if self.cfg.inside_starts is None or closed else self.cfg.inside_starts
 
     def curriculum_scale(self) -> float:
         """Fraction of the full spawn ranges in use now (1 without a curriculum)."""
@@ -379,8 +376,9 @@ class PegInHoleVecEnv:
             cfg,
         )
         self._assisted[idx] = False
-        if self.inside_share():  # a share starts inside the hole (reverse curriculum)
-            inside = self.rng.random(len(idx)) < self.inside_share()
+        share = self.inside_share()
+        if share:  # a share starts inside the hole (reverse curriculum)
+            inside = self.rng.random(len(idx)) < share
             pos[inside], quat[inside] = self._inside_poses(idx[inside])
             self._assisted[idx] = inside
         pos, quat = self._place(idx, pos, quat, scale)

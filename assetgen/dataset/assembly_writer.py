@@ -53,7 +53,7 @@ def write_assembly(
     behind, when a check fails.
 
     print_offset (m, DatasetSpec's): the STL files and the 3MF carry every part's holes with
-    their faces moved out by this much more (printed_parts); each step's gap is measured on
+    their faces moved out by this much more (part_mesh.printed_part); each step's gap is measured on
     them and recorded under `printed`. The checks, the MJCF and the USD are the simulation's
     geometry's, as without it."""
     mid = module_id(seed)
@@ -75,8 +75,9 @@ def write_assembly(
                 data = stl_bytes(part_mesh(p))
                 meshes[p.name] = parse_stl_mm(data if print_offset else write(name, data), name)
                 if print_offset:  # the printed part is the file; the checks keep the exact one
-                    data = write(name, stl_bytes(part_mesh(printed_part(p, print_offset))))
-                    printed[p.name] = parse_stl_mm(data, name)
+                    if p.holes:  # a part without holes prints as it simulates
+                        data = stl_bytes(part_mesh(printed_part(p, print_offset)))
+                    printed[p.name] = parse_stl_mm(write(name, data), name)
         with step(times, "collision: decompose"):
             pieces = {p.name: stored(carve_part(p.solids, p.holes)) for p in parts}
         with step(times, "checks"):

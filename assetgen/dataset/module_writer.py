@@ -190,7 +190,8 @@ def write_module(
                     insertion_travel(geom),
                 )
         with step(times, "3mf"):
-            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, printed or geom.module))
+            plate = geom.module if printed is None else printed
+            ctx.write("peg_in_hole.3mf", threemf_bytes(geom.peg, plate))
         with step(times, "mass"):
             peg = peg_mass_properties(geom)
         ctx.record.update(

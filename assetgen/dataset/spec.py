@@ -83,6 +83,13 @@ class DatasetSpec:
         return self
 
     @property
+    def assembly(self) -> bool:
+        """Whether its family builds assemblies (the assembly layout), not Table I modules."""
+        from assetgen.families.registry import is_assembly
+
+        return is_assembly(self.family)
+
+    @property
     def seeds(self) -> range:
         return range(self.seed_start, self.seed_start + self.count)
 

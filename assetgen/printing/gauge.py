@@ -19,7 +19,9 @@ import numpy as np
 
 from assetgen.core.frames import Frame
 from assetgen.families.parts import Assembly, Part, Step
-from assetgen.geometry.polygon_offset import edge_lines, mitred_offset
+from assetgen.families.profile import prism
+from assetgen.families.profile_bolt import box
+from assetgen.geometry.polygon_offset import mitred_offset
 from assetgen.params.module_params import ParamError
 
 SIDES = 32
@@ -121,21 +123,6 @@ def label_boxes(text: str, origin: np.ndarray, height: float, stroke: float, z0:
 def text_width(text: str, height: float, stroke: float) -> float:
     """The width (m) label_boxes gives `text`."""
     return sum(2.5 * stroke if ch == "." else 0.55 * height + 1.5 * stroke for ch in text)
-
-
-def box(lo, hi) -> np.ndarray:
-    """The axis-aligned box lo <= x <= hi as (6, 4) half-space rows."""
-    e = np.eye(3)
-    return np.vstack(
-        [np.column_stack([e, np.asarray(hi, float)]), np.column_stack([-e, -np.asarray(lo, float)])]
-    )
-
-
-def prism(poly: np.ndarray, z0: float, z1: float) -> np.ndarray:
-    """The straight prism over a convex counter-clockwise polygon between z0 and z1."""
-    normals, d = edge_lines(poly)
-    sides = np.column_stack([normals, np.zeros(len(poly)), d])
-    return np.vstack([sides, [[0.0, 0.0, 1.0, z1]], [[0.0, 0.0, -1.0, -z0]]])
 
 
 def label(c: float) -> str:

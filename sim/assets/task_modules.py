@@ -20,11 +20,11 @@ def load_modules(root: Path | str, ids: list[str] | None = None) -> list[ModuleA
 
     try:
         ds = Dataset(root)
-        family = ds.spec.family
+        family, assembly = ds.spec.family, ds.spec.assembly
         dirs = [ds.module_dir(mid) for mid in (ds.ids if ids is None else ids)]
     except DatasetError as e:
         raise AssetError(str(e)) from e
-    if family == "peg-in-hole":
+    if not assembly:  # Table I's layout: the modules as they are
         return load_dataset(root, ids)
     out = []
     for d in dirs:

@@ -24,7 +24,15 @@ import numpy as np
 from assetgen.core.frames import Frame
 from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
-from assetgen.families.profile import PLATE_SIZE, PLATE_THICKNESS, REACH, frames, prism, sleeve
+from assetgen.families.profile import (
+    PLATE_SIZE,
+    REACH,
+    frames,
+    plate,
+    prism,
+    sleeve,
+    sleeve_reach,
+)
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.geometry.polytope import polytope_vertices
 from assetgen.params.module_params import ParamError
@@ -158,11 +166,9 @@ def _carrier(p: MultiPegParams) -> np.ndarray:
 
 def fits(p: MultiPegParams) -> bool:
     """Whether the sleeve stays on the plate and the seated carrier clears its top."""
-    _, _, design = frames(p)
-    box = sleeve(p, _reach(p), design)
-    box[-1, 3] = 0.0  # up to the plate's top: the holes' walls there, too
-    if np.abs(polytope_vertices(box)[:, :2]).max() > PLATE_SIZE / 2:
+    if sleeve_reach(p, _reach(p)) > PLATE_SIZE / 2:
         return False
+    _, _, design = frames(p)
     carrier = polytope_vertices(_carrier(p)) @ design[:3, :3].T + design[:3, 3]
     return bool(carrier[:, 2].min() >= CLEAR)
 
@@ -178,12 +184,7 @@ def build_multi_peg(p: MultiPegParams) -> Assembly:
     pegs = [prism(s, 0.0, p.peg_length + EMBED) for s in _sections(p)]
     holes = [h for peg in pegs for h in clearance_hole([peg], p.clearance, design, axis, REACH)]
     outline = np.vstack(_sections(p))
-    half = PLATE_SIZE / 2
-    plate = np.array(
-        [[1, 0, 0, half], [-1, 0, 0, half], [0, 1, 0, half], [0, -1, 0, half],
-         [0, 0, 1, 0.0], [0, 0, -1, PLATE_THICKNESS]], dtype=float,
-    )  # fmt: skip
-    base = Part("base", (plate, sleeve(p, _reach(p), design)), tuple(holes))
+    base = Part("base", (plate(), sleeve(p, _reach(p), design)), tuple(holes))
     carrier = Part("carrier", (*pegs, _carrier(p)), (), design)
     travel = p.hole_depth + float(np.linalg.norm(outline, axis=1).max()) + 0.01
     step = Step("carrier", p.clearance, entrance, Frame.from_matrix(bottom), travel)

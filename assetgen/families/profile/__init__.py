@@ -36,7 +36,7 @@ from assetgen.geometry.polygon_offset import (
     edge_lines,
     mitred_offset,
 )
-from assetgen.geometry.polytope import transform_planes
+from assetgen.geometry.polytope import polytope_vertices, transform_planes
 from assetgen.params.module_params import ParamError
 from assetgen.params.sampler import OneClearance, check_ranges
 
@@ -67,6 +67,15 @@ def section_planes(poly: np.ndarray) -> np.ndarray:
 def prism(poly: np.ndarray, z0: float, z1: float) -> np.ndarray:
     """The straight prism over a convex polygon between z0 and z1, as half-space rows."""
     return np.vstack([section_planes(poly), [[0.0, 0.0, 1.0, z1]], [[0.0, 0.0, -1.0, -z0]]])
+
+
+def plate() -> np.ndarray:
+    """Table I's plate (6, 4): 15 x 15 cm, 5 mm thick, its top face z = 0."""
+    half = PLATE_SIZE / 2
+    return np.array(
+        [[1, 0, 0, half], [-1, 0, 0, half], [0, 1, 0, half], [0, -1, 0, half],
+         [0, 0, 1, 0.0], [0, 0, -1, PLATE_THICKNESS]], dtype=float,
+    )  # fmt: skip
 
 
 def rotation(tilt_x: float, tilt_y: float, yaw: float) -> np.ndarray:
@@ -194,13 +203,13 @@ def sleeve(p: ProfileParams, offset: np.ndarray, design: np.ndarray) -> np.ndarr
     return np.vstack([transform_planes(box, design), [[0.0, 0.0, 1.0, -PLATE_THICKNESS / 2]]])
 
 
-def sleeve_reach(p: ProfileParams) -> float:
-    """How far (m) from the plate's centre the sleeve and the hole reach in x or y, at or
-    below the plate's top: at most the plate's half-width for the module to fit."""
-    from assetgen.geometry.polytope import polytope_vertices
-
+def sleeve_reach(p, outline: np.ndarray) -> float:
+    """How far (m) from the plate's centre the sleeve around the holes' `outline` (points
+    (k, 2) in the design frame's xy) reaches in x or y, at or below the plate's top: at most
+    the plate's half-width for the module to fit. `p`: a family's params with Table I's
+    placement (frames)."""
     _, _, design = frames(p)
-    box = sleeve(p, mitred_offset(p.polygon(), p.clearance), design)
+    box = sleeve(p, outline, design)
     box[-1, 3] = 0.0  # up to the plate's top: the hole's wall there, too
     return float(np.abs(polytope_vertices(box)[:, :2]).max())
 
@@ -219,12 +228,7 @@ def build_profile(p: ProfileParams) -> Assembly:
         transform_planes(prism(piece, -p.clearance, REACH), design)
         for piece in convex_partition(offset, overlap=True)
     )
-    half = PLATE_SIZE / 2
-    plate = np.array(
-        [[1, 0, 0, half], [-1, 0, 0, half], [0, 1, 0, half], [0, -1, 0, half],
-         [0, 0, 1, 0.0], [0, 0, -1, PLATE_THICKNESS]], dtype=float,
-    )  # fmt: skip
-    base = Part("base", (plate, sleeve(p, offset, design)), holes)
+    base = Part("base", (plate(), sleeve(p, offset, design)), holes)
     peg = Part("peg", peg_solids, (), design, shared_corners=True)
     step = Step(
         "peg",
@@ -362,7 +366,7 @@ class ProfileSampler(OneClearance):
                 hole_yaw=u(self.hole_yaw),
                 clearance=self.clearance,
             )
-            if sleeve_reach(p) <= PLATE_SIZE / 2:
+            if sleeve_reach(p, mitred_offset(p.polygon(), p.clearance)) <= PLATE_SIZE / 2:
                 return p
         raise ParamError(
             f"seed {seed}: no placement of its {shape} peg fits the plate in 100 draws"
