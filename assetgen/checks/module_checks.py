@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import fcl
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
 from assetgen.core.frames import Frame
@@ -30,37 +28,88 @@ def topology(mesh: Mesh) -> dict:
     """Watertightness, winding, bodies, genus and volume (m^3) of a triangle mesh.
 
     Closed and consistently oriented <=> every directed edge appears once and its reverse
-    once; genus from Euler's formula V - E + F = 2 - 2g per body.
+    once; genus from Euler's formula V - E + F = 2 - 2g per body (V counts the vertices the
+    faces use, E the distinct undirected edges; bodies are the edge graph's components).
     """
-    f = mesh.faces
-    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    key = directed[:, 0].astype(np.int64) * len(mesh.vertices) + directed[:, 1]
-    rev = directed[:, 1].astype(np.int64) * len(mesh.vertices) + directed[:, 0]
-    unique_directed = len(np.unique(key)) == len(key)
-    watertight = unique_directed and np.isin(rev, key).all()
-    # Edges as integer keys (lo * V + hi): np.unique of ints sorts them in the same
-    # (lo, hi) order as np.unique(..., axis=0) of the pairs, without its row machinery.
-    pair = np.sort(directed, axis=1).astype(np.int64)
-    edge_key = np.unique(pair[:, 0] * len(mesh.vertices) + pair[:, 1])
-    undirected = np.column_stack(np.divmod(edge_key, len(mesh.vertices)))
-    used = np.unique(f)
-    n_v, n_e, n_f = len(used), len(undirected), len(f)
-    graph = coo_matrix(
-        (np.ones(len(undirected)), (undirected[:, 0], undirected[:, 1])),
-        shape=(len(mesh.vertices),) * 2,
-    )
-    bodies = connected_components(graph, directed=False)[1][used]
-    n_bodies = len(np.unique(bodies))
+    f = np.ascontiguousarray(mesh.faces, np.int64)
+    counts = np.zeros(4, np.int64)
+    _edge_graph()(f, len(mesh.vertices), counts)
+    unique_directed, watertight, n_e, n_bodies = (int(c) for c in counts)
+    n_v, n_f = int(np.count_nonzero(np.bincount(f.ravel(), minlength=1))), len(f)
     tri = mesh.vertices[f]
     volume = np.einsum("ij,ij->i", tri[:, 0], cross3(tri[:, 1], tri[:, 2])).sum() / 6.0
     return {
         "watertight": bool(watertight),
         "winding_consistent": bool(unique_directed),
-        "bodies": int(n_bodies),
+        "bodies": n_bodies,
         "genus": int((2 * n_bodies - (n_v - n_e + n_f)) // 2),
         "volume_m3": float(volume),
         "triangles": int(n_f),
     }
+
+
+def _edges(faces, n, counts):  # pragma: no cover - compiled (see _edge_graph)
+    """counts = (every directed edge once, and its reverse too, undirected edges, bodies of
+    the vertices the faces use): sorted integer keys a * n + b and a union-find, exact."""
+    m = 3 * len(faces)
+    key = np.empty(m, np.int64)
+    pair = np.empty(m, np.int64)
+    for t in range(len(faces)):
+        for e in range(3):
+            a, b = faces[t, e], faces[t, (e + 1) % 3]
+            key[3 * t + e] = a * n + b
+            pair[3 * t + e] = min(a, b) * n + max(a, b)
+    key.sort()
+    pair.sort()
+    unique = 1
+    for i in range(1, m):
+        if key[i] == key[i - 1]:
+            unique = 0
+    closed = unique
+    if closed:
+        for i in range(m):
+            a, b = key[i] // n, key[i] % n
+            j = np.searchsorted(key, b * n + a)
+            if j == m or key[j] != b * n + a:
+                closed = 0
+                break
+    edges = 0
+    parent = np.arange(n)
+    for i in range(m):
+        if i > 0 and pair[i] == pair[i - 1]:
+            continue
+        edges += 1
+        a, b = pair[i] // n, pair[i] % n
+        while parent[a] != a:  # path halving keeps the trees shallow
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    used = np.zeros(n, np.bool_)
+    for t in range(len(faces)):
+        for e in range(3):
+            used[faces[t, e]] = True
+    bodies = 0
+    for v in range(n):
+        if used[v] and parent[v] == v:
+            bodies += 1
+    counts[0], counts[1], counts[2], counts[3] = unique, closed, edges, bodies
+
+
+_EDGES = None
+
+
+def _edge_graph():
+    """_edges compiled (numba, cached on disk), on first use."""
+    global _EDGES
+    if _EDGES is None:
+        from numba import njit
+
+        _EDGES = njit(cache=True)(_edges)
+    return _EDGES
 
 
 def is_convex(mesh: Mesh, tol: float = 1e-7) -> bool:

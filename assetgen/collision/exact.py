@@ -202,10 +202,13 @@ def exact_decomposition(
             np.vstack([region, cell, move - outer[j], outer[:j] + move]) for j in range(len(outer))
         ]
 
+    # which outline cells hold plate, for every i in one batch (each system's mesh depends on
+    # that system alone, so batching changes no piece)
+    tried = [plate_cells(i, 0.0, bare_box, bare[i]) for i in range(k)]
+    kept = iter(aligned_cell_meshes([s for cells_i in tried for s in cells_i]))
     for i in range(k):
-        kept = aligned_cell_meshes(plate_cells(i, 0.0, bare_box, bare[i]))
         grown = plate_cells(i, overlap, local_box, cells[i])
-        systems += [s for s, m in zip(grown, kept, strict=True) if m is not None]
+        systems += [s for s in grown if next(kept) is not None]
     meshes = aligned_cell_meshes(systems)
 
     # Every wall piece inside every mitred plane: a piece whose vertices all satisfy one

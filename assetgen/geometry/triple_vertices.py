@@ -4,7 +4,8 @@ A module's exact decomposition cuts ~30 cells of 6 - 71 planes each. Every tripl
 cell's planes is solved (Cramer's rule) and the point kept if it satisfies all the cell's
 planes. As numpy over all triples at once this takes ~3.4 ms a module, mostly temporaries of
 (systems, triples, planes) shape; one compiled loop that stops testing a point at the first
-plane it violates takes a fraction of that. Hand-written (numba) because no library solves
+plane it violates (trying first the plane that cut off the last rejected point) takes a
+fraction of that. Hand-written (numba) because no library solves
 many tiny vertex enumerations at once: qhull's HalfspaceIntersection needs an interior point
 (a linear program) and costs ~100 us a call.
 
@@ -35,6 +36,7 @@ def _enumerate(planes, starts, sizes, tol, out, owner, masks):  # pragma: no cov
     for s in range(len(sizes)):
         base = starts[s]
         m = sizes[s]
+        last = 0
         for i in range(m):
             a = planes[base + i]
             for j in range(i + 1, m):
@@ -56,12 +58,18 @@ def _enumerate(planes, starts, sizes, tol, out, owner, masks):  # pragma: no cov
                     x = (a[3] * bcx + b[3] * cax + c[3] * abx) / det
                     y = (a[3] * bcy + b[3] * cay + c[3] * aby) / det
                     z = (a[3] * bcz + b[3] * caz + c[3] * abz) / det
+                    # the plane that cut off the last rejected point first: most points
+                    # are rejected, and a plane that cuts one off often cuts the next
+                    p = planes[base + last]
+                    if x * p[0] + y * p[1] + z * p[2] - p[3] > tol:
+                        continue
                     inside = True
                     for q in range(m):
                         p = planes[base + q]
                         r = x * p[0] + y * p[1] + z * p[2] - p[3]
                         if r > tol:
                             inside = False
+                            last = q
                             break
                         if words and r >= -tol:  # on plane q: bit q of the point's mask
                             masks[found, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
