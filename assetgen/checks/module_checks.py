@@ -102,6 +102,18 @@ def _edges(faces, n, counts):  # pragma: no cover - compiled (see _edge_graph)
 _EDGES = None
 
 
+def warm_up() -> None:
+    """Load (or compile, then cached) the compiled checks, e.g. in a parent process before it
+    forks: a tetrahedron through topology and the convexity proof."""
+    from assetgen.checks.closed_mesh import check_closed_meshes
+
+    tet = Mesh(
+        np.vstack([np.zeros(3), np.eye(3)]), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    )
+    topology(tet)
+    check_closed_meshes([tet], ["tetrahedron"], convex=True)
+
+
 def _edge_graph():
     """_edges compiled (numba, cached on disk), on first use."""
     global _EDGES

@@ -197,9 +197,10 @@ def exact_decomposition(
         """Cell i's plate pieces within `region`, their outline planes moved `shift`."""
         move = np.array([0.0, 0.0, 0.0, shift])
         outer = np.vstack([mitred[i], box])
+        beyond, inside, shared = move - outer, outer + move, np.concatenate([region, cell])
         # beyond outer plane j (from `shift` inside it), inside those before it (to `shift`)
         return [
-            np.vstack([region, cell, move - outer[j], outer[:j] + move]) for j in range(len(outer))
+            np.concatenate([shared, beyond[j : j + 1], inside[:j]]) for j in range(len(outer))
         ]
 
     # which outline cells hold plate, for every i in one batch (each system's mesh depends on

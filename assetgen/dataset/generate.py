@@ -288,11 +288,13 @@ def _import_exporters(formats: tuple[str, ...], family: str = DEFAULT_FAMILY) ->
     forking, so the workers share them instead of each paying for them on its first
     module."""
     import assetgen.formats.registry  # registers the formats
+    from assetgen.checks import module_checks as checks
     from assetgen.collision.cell_meshes import warm_up
 
     # the family's writer (an assembly's brings its decomposition and MJCF)
     importlib.import_module(get_family(family).layout.writer.partition(":")[0])
     warm_up()  # every module's build enumerates vertices, and most decompose
+    checks.warm_up()  # every module's files are checked
 
     if "mjcf" in formats:
         import assetgen.formats.mjcf

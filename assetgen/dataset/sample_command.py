@@ -28,8 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument(
         "--family",
         default="peg-in-hole",
-        help="what to generate: peg-in-hole (Table I, default), profile (non-convex pegs) or "
-        "profile-bolt (a profile into a socket, then a bolt from the side); `assetgen families`",
+        help="what to generate: peg-in-hole (Table I, default), profile (non-convex pegs), "
+        "multi-peg (2-4 pegs on one carrier) or profile-bolt (a profile into a socket, then a "
+        "bolt from the side); `assetgen families`",
     )
     s.add_argument(
         "--clearance-mm",
