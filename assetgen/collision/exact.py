@@ -199,9 +199,7 @@ def exact_decomposition(
         outer = np.vstack([mitred[i], box])
         beyond, inside, shared = move - outer, outer + move, np.concatenate([region, cell])
         # beyond outer plane j (from `shift` inside it), inside those before it (to `shift`)
-        return [
-            np.concatenate([shared, beyond[j : j + 1], inside[:j]]) for j in range(len(outer))
-        ]
+        return [np.concatenate([shared, beyond[j : j + 1], inside[:j]]) for j in range(len(outer))]
 
     # which outline cells hold plate, for every i in one batch (each system's mesh depends on
     # that system alone, so batching changes no piece)
