@@ -405,15 +405,16 @@ def superseded_variants(page: Page) -> frozenset[str]:
     import json
 
     from benchmarks.table3 import ROWS
-    from rl.report_load import variant_name
+    from rl.report_load import env_words, variant_name
 
     names = set()
     for run in page.run_paths():
         row = ROWS.get(run.name.rsplit("-s", 1)[0])
         if run.parent.name == "table3" and row is not None and row.superseded_by is not None:
             meta = json.loads((run / "config.json").read_text())
-            names.add(variant_name(meta["algo"], int(meta.get("stack", 1)), meta.get("demos"),
-                                   meta.get("overrides")))  # fmt: skip
+            name = variant_name(meta["algo"], int(meta.get("stack", 1)), meta.get("demos"),
+                                meta.get("overrides"))  # fmt: skip
+            names.add(f"{name} {env_words(meta.get('env_options') or {})}".strip())
     return frozenset(names)
 
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from assetgen.core.atomic_file import write_json
-from rl.report_load import Run, load_run
+from rl.report_load import Run, load_run, variant_name
 
 
 @dataclass(frozen=True)
@@ -111,8 +111,12 @@ def stall_rates(rows: list[Takeoff]) -> dict[str, tuple[int, int]]:
 
 
 def relabel(run: Run, extra: str) -> Run:
-    """The run, its variant followed by `extra` (its env_labels word)."""
-    return replace(run, variant=f"{run.variant} {extra}".strip())
+    """The run named by its policy (algorithm, --set fields) and `extra`, its env_labels
+    words (which hold the training env options load_run names as well)."""
+    meta = json.loads((Path(run.path) / "config.json").read_text())
+    policy = variant_name(meta["algo"], int(meta.get("stack", 1)), meta.get("demos"),
+                          meta.get("overrides"))  # fmt: skip
+    return replace(run, variant=f"{policy} {extra}".strip())
 
 
 def main(argv: list[str] | None = None) -> None:

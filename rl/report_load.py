@@ -88,6 +88,25 @@ def variant_name(
     return name
 
 
+TRAINING_OPTIONS = (
+    "curriculum_success",
+    "module_replay",
+    "near_starts",
+    "inside_starts",
+    "inside_starts_until",
+    "axis_shaping",
+)
+"""The env options of `assetgen train` that change what a run learns from (config.json's
+env_options), named in its variant: runs that differ in them are never averaged together."""
+
+
+def env_words(env_options: dict[str, Any]) -> str:
+    """The training env options a run was made with, as "key=value" words ("" for none)."""
+    return " ".join(
+        f"{k}={env_options[k]}" for k in TRAINING_OPTIONS if env_options.get(k) is not None
+    )
+
+
 def _base_name(algo: str, stack: int) -> str:
     # the built-in agents keep their names
     if algo in ("random", "scripted", "scripted-fast", "scripted-direct"):
@@ -192,14 +211,20 @@ def load_run(path: str | Path, label: str | None = None) -> Run:
     meta = _read_json(config)
     if "algo" not in meta:
         raise ReportError(f"{config}: no 'algo' key; is this a run of `assetgen train`?")
-    variant = variant_name(
+    policy = variant_name(
         meta["algo"], int(meta.get("stack", 1)), meta.get("demos"), meta.get("overrides")
     )
+    # an evaluation file names the policy only; the run's training env options follow it
+    variant = f"{policy} {env_words(meta.get('env_options') or {})}".strip()
     steps, rate, probe_steps, probe_rate, wall, episodes = _read_metrics(metrics)
     evals = tuple(load_eval(p) for p in sorted(path.glob("eval_*.json")))
     for e in evals:
-        if e.variant.removesuffix(SAMPLED) != variant:
-            raise ReportError(f"{e.path} evaluates {e.variant}, but the run {path} is {variant}")
+        if e.variant.removesuffix(SAMPLED) != policy:
+            raise ReportError(f"{e.path} evaluates {e.variant}, but the run {path} is {policy}")
+    evals = tuple(
+        replace(e, variant=variant + (SAMPLED if e.variant.endswith(SAMPLED) else ""))
+        for e in evals
+    )
     kinds = [(e.split, e.policy) for e in evals]
     if len(set(kinds)) != len(kinds):
         raise ReportError(

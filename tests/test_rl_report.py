@@ -413,3 +413,29 @@ def test_palette_gives_every_variant_of_a_report_its_own_colour() -> None:
     colours = palette(runs | {f"{v} (sampled)" for v in runs})
     assert len({tuple(colours[v]) for v in runs}) == 14
     assert all(colours[f"{v} (sampled)"] == colours[v] for v in runs)
+
+
+def test_training_env_options_set_a_run_apart(tmp_path: Path) -> None:
+    """A run trained with inside starts (or any training env option) is its own variant, so it
+    is never averaged with the recipe's seeds; its evaluations, which name the policy only,
+    follow it; an evaluation of another policy is still refused."""
+    plain = fake_run(tmp_path / "plain", "sac", 1, 0, [8], [0.5])
+    shaped = fake_run(tmp_path / "shaped", "sac", 1, 1, [8], [0.5])
+    meta = json.loads((shaped / "config.json").read_text())
+    meta["env_options"] = {
+        "curriculum_steps": 10,
+        "inside_starts": 0.25,
+        "inside_starts_until": 0.1,
+    }
+    (shaped / "config.json").write_text(json.dumps(meta))
+    for run in (plain, shaped):
+        fake_eval(run / "eval_test.json", "test", 0.9, 10, [1.0] * 9, algo="sac", stack=1)
+    a, b = load_run(plain), load_run(shaped)
+    assert a.variant == "SAC"
+    assert b.variant == "SAC inside_starts=0.25 inside_starts_until=0.1"
+    assert [e.variant for e in b.evals] == [b.variant]
+    summary = summarise([a, b], [])
+    assert set(summary["curves"]) == {a.variant, b.variant}  # two rows, not one of 2 seeds
+    fake_eval(shaped / "eval_test.json", "test", 0.9, 10, [1.0] * 9, algo="ppo", stack=1)
+    with pytest.raises(ReportError, match=r"evaluates PPO, but the run .* is SAC"):
+        load_run(shaped)
