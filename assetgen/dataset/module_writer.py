@@ -27,6 +27,7 @@ from assetgen.geometry.solids import (
     FootprintError,
     ModuleGeometry,
     build_module,
+    chamfer_inset,
     insertion_travel,
     printed_module,
 )
@@ -180,6 +181,11 @@ def write_module(
                 params.clearance,
                 insertion_travel(geom),
             )
+            if params.peg_chamfer:  # where the side faces, and the exact clearance, start
+                checks["peg_chamfer"] = {
+                    "sides_start_m": params.peg_chamfer,
+                    "bottom_inset_m": chamfer_inset(params),
+                }
             if printed is not None:  # the printed hole, written in the simulation's place
                 data = ctx.write("module.stl", stl_bytes(printed))
                 printed_checks = verify(

@@ -12,6 +12,7 @@ NUMBERS = {
     "n": count("ask for at least 1 module"),
     "seed": Bound(low=0, hint="seeds are non-negative integers"),
     "workers": count("give at least 1 process, or leave it out (all cores)"),
+    "peg_chamfer_deg": Bound(low=5, high=60, hint="give the chamfer 5 to 60 deg from the sides"),
 }
 """The bounds of sample's numeric flags (assetgen.core.preflight); --clearance-mm is the
 sampler config's clearance, which validates it (finite, positive) before anything is
@@ -43,6 +44,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="MM",
         help="move the printed files' (STL, 3MF) hole faces out by MM, your printer's hole error "
         "(`assetgen gauge`); the simulation files keep the exact clearance",
+    )
+    s.add_argument(
+        "--peg-chamfer",
+        metavar="MM[,MM]",
+        help="chamfer the pegs' tips (peg-in-hole): this long along the axis, or drawn from "
+        "LOW,HIGH, in mm; the hole and its clearance stay the unchamfered peg's",
+    )
+    s.add_argument(
+        "--peg-chamfer-deg",
+        type=float,
+        default=45.0,
+        metavar="DEG",
+        help="the chamfer's angle from the side faces (default 45)",
     )
     s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
     s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
@@ -135,6 +149,8 @@ def sample_spec(args: argparse.Namespace):
     config = fam.sampler()
     if args.clearance_mm is not None:  # the family's first step's clearance
         config = config.with_clearance(args.clearance_mm / 1000.0)
+    if getattr(args, "peg_chamfer", None) is not None:
+        config = _chamfered(config, args, fam.name)
     formats = tuple(args.formats.split(",")) if args.formats else available_formats()
     spec = DatasetSpec(
         name=Path(args.out).name,
@@ -145,6 +161,33 @@ def sample_spec(args: argparse.Namespace):
         family=fam.name,
     )
     return Path(args.out), _printed(spec, args)
+
+
+def _chamfered(config, args: argparse.Namespace, name: str):
+    """The sampler config with --peg-chamfer (mm) and --peg-chamfer-deg set; DatasetError
+    for a family without it, or a length that is not one or two numbers in mm."""
+    import math
+    from dataclasses import replace
+
+    from assetgen.dataset.spec import DatasetError
+
+    if not hasattr(config, "peg_chamfer"):
+        raise DatasetError(
+            f"--peg-chamfer: the {name} family has no peg chamfer; peg-in-hole (Table I) has"
+        )
+    try:
+        mm = [float(x) for x in args.peg_chamfer.split(",")]
+    except ValueError:
+        mm = []
+    if len(mm) == 1:
+        mm *= 2
+    if len(mm) != 2 or not all(math.isfinite(x) and 0 < x <= 50 for x in mm) or mm[0] > mm[1]:
+        raise DatasetError(
+            f"--peg-chamfer {args.peg_chamfer}: give a length in mm, or LOW,HIGH with "
+            "0 < LOW <= HIGH <= 50 (e.g. --peg-chamfer 1 or --peg-chamfer 0.5,2)"
+        )
+    angle = math.radians(args.peg_chamfer_deg)
+    return replace(config, peg_chamfer=(mm[0] / 1e3, mm[1] / 1e3), peg_chamfer_angle=(angle, angle))
 
 
 def _printed(spec, args: argparse.Namespace):

@@ -44,6 +44,16 @@ class FootprintError(GeometryError):
     Table I): refused by design, so a module is never wider than its plate."""
 
 
+class ChamferError(FootprintError):
+    """A peg chamfer too long for its peg's bottom face (its edges would cross): refused, and
+    a sampled module is drawn again, as on a footprint refusal."""
+
+
+CHAMFER_FILL = 0.8
+"""A chamfer may move the bottom face's edges in by at most this share of the inset at which
+its first edge would vanish (the face keeps its shape, a fifth of its size at least)."""
+
+
 @dataclass(frozen=True)
 class ModuleGeometry:
     """The solids and frames of one module. Meshes in metres.
@@ -83,11 +93,60 @@ def cross_section(p: ModuleParams) -> np.ndarray:
     return matmul(pts, squash.T)
 
 
+def _corners(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A convex CCW polygon's (n, 2) unit vectors from each corner to the previous and the
+    next corner, and the edge lengths (n,) from each corner to the next (elementwise
+    arithmetic: the same bits on every CPU)."""
+    prev = np.roll(polygon, 1, axis=0) - polygon
+    nxt = np.roll(polygon, -1, axis=0) - polygon
+    length = np.sqrt(nxt[:, 0] * nxt[:, 0] + nxt[:, 1] * nxt[:, 1])
+    back = np.roll(length, 1)
+    return prev / back[:, None], nxt / length[:, None], length
+
+
+def chamfer_inset_limit(polygon: np.ndarray) -> float:
+    """The inset (m) at which moving every edge of a convex CCW polygon in by it makes its
+    first edge vanish: an edge shrinks by the inset times cot(a/2) at each end, a being the
+    corner's interior angle."""
+    u, w, length = _corners(polygon)
+    cos = u[:, 0] * w[:, 0] + u[:, 1] * w[:, 1]
+    sin = np.abs(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
+    cot_half = (1.0 + cos) / sin  # cot(a / 2) at each corner
+    return float((length / (cot_half + np.roll(cot_half, -1))).min())
+
+
+def _inset(polygon: np.ndarray, inset: float) -> np.ndarray:
+    """The convex CCW polygon with every edge moved in by `inset` (m): each corner moves
+    along its bisector by inset / sin(a / 2)."""
+    u, w, _ = _corners(polygon)
+    bis = u + w
+    size = np.sqrt(bis[:, 0] * bis[:, 0] + bis[:, 1] * bis[:, 1])
+    cos = u[:, 0] * w[:, 0] + u[:, 1] * w[:, 1]
+    sin_half = np.sqrt((1.0 - cos) / 2.0)
+    return polygon + (inset / sin_half)[:, None] * bis / size[:, None]
+
+
+def chamfer_inset(p: ModuleParams) -> float:
+    """How far the chamfer moves the bottom face's edges in (m); ChamferError where that is
+    more than CHAMFER_FILL of the bottom face's limit."""
+    inset = p.peg_chamfer * math.tan(p.peg_chamfer_angle)
+    limit = CHAMFER_FILL * chamfer_inset_limit((1.0 - p.taper) * cross_section(p))
+    if inset > limit:
+        raise ChamferError(
+            f"peg_chamfer = {p.peg_chamfer * 1e3:.3f} mm at {math.degrees(p.peg_chamfer_angle):g}"
+            f" deg moves the peg's bottom edges in by {inset * 1e3:.3f} mm; this peg's bottom "
+            f"face takes at most {limit * 1e3:.3f} mm: shorten the chamfer or flatten its angle"
+        )
+    return inset
+
+
 def peg_mesh(p: ModuleParams) -> Mesh:
     """The peg as a closed mesh in the peg frame (bottom face centre at the origin)."""
     top = cross_section(p)
     n = len(top)
     bottom = (1.0 - p.taper) * top
+    if p.peg_chamfer:
+        return _chamfered_peg(p, top, bottom)
     v = np.vstack(
         [
             np.column_stack([bottom, np.zeros(n)]),
@@ -101,6 +160,30 @@ def peg_mesh(p: ModuleParams) -> Mesh:
     bottom_faces = np.column_stack([np.zeros(n - 2, int), fan + 1, fan])
     top_faces = np.column_stack([np.full(n - 2, n), n + fan, n + fan + 1])
     return Mesh(v, np.vstack([sides, bottom_faces, top_faces]).astype(np.int64))
+
+
+def _chamfered_peg(p: ModuleParams, top: np.ndarray, bottom: np.ndarray) -> Mesh:
+    """The peg with its tip chamfered: the bottom face inset, each side face from
+    `peg_chamfer` up, and between them one planar chamfer face a side (each side's edge at
+    that height and its inset bottom edge are parallel)."""
+    n = len(top)
+    t = p.peg_chamfer / p.peg_height
+    start = bottom + t * (top - bottom)  # the side faces' section at the chamfer's top
+    layers = (_inset(bottom, chamfer_inset(p)), start, top)
+    heights = (0.0, p.peg_chamfer, p.peg_height)
+    v = np.vstack(
+        [np.column_stack([xy, np.full(n, z)]) for xy, z in zip(layers, heights, strict=True)]
+    )
+    i = np.arange(n)
+    j = (i + 1) % n
+    bands = [
+        np.vstack([np.column_stack([a + i, a + j, b + j]), np.column_stack([a + i, b + j, b + i])])
+        for a, b in ((0, n), (n, 2 * n))
+    ]
+    fan = np.arange(1, n - 1)
+    bottom_faces = np.column_stack([np.zeros(n - 2, int), fan + 1, fan])
+    top_faces = np.column_stack([np.full(n - 2, 2 * n), 2 * n + fan, 2 * n + fan + 1])
+    return Mesh(v, np.vstack([*bands, bottom_faces, top_faces]).astype(np.int64))
 
 
 def peg_planes(p: ModuleParams) -> np.ndarray:
@@ -218,6 +301,8 @@ def printed_module(geom: ModuleGeometry, offset: float) -> Mesh:
 def build_module(p: ModuleParams) -> ModuleGeometry:
     """Build the peg, the module and the frames of `p` (validated first)."""
     p.validate()
+    if p.peg_chamfer:
+        chamfer_inset(p)  # a chamfer its peg cannot take is refused before any solid
     entrance, bottom, design = task_frames(p)
     design_m = design.matrix()
     axis = design_m[:3, 2]

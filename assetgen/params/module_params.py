@@ -68,6 +68,16 @@ class ModuleParams:
     """Wall thickness of the sleeve around the hole below the plate, m."""
     floor_thickness: float = 0.005
     """Thickness of the sleeve's floor under the hole, m."""
+    peg_chamfer: float = 0.0
+    """Length of the chamfer on the peg's tip along the peg's axis, m (0: none, Table I). The
+    side faces start this far above the bottom face, where the exact clearance starts; below,
+    each side's chamfer face leans in to the bottom face, whose edges move in by
+    peg_chamfer * tan(peg_chamfer_angle). The hole is the unchamfered peg's."""
+    peg_chamfer_angle: float = math.pi / 4
+    """Angle of the chamfer's faces from the side faces they cut, rad (5 - 60 deg)."""
+
+    CHAMFER_FIELDS = ("peg_chamfer", "peg_chamfer_angle")
+    """Written to module.json only with a chamfer, so Table I's records keep their form."""
 
     @property
     def hole_depth(self) -> float:
@@ -75,7 +85,11 @@ class ModuleParams:
         return self.hole_depth_fraction * self.peg_height
 
     def to_json(self) -> dict:
-        return asdict(self)
+        out = asdict(self)
+        if not self.peg_chamfer:
+            for k in self.CHAMFER_FIELDS:
+                del out[k]
+        return out
 
     @staticmethod
     def from_json(d: dict) -> ModuleParams:
@@ -120,4 +134,7 @@ class ModuleParams:
         _check_range("plate_thickness", self.plate_thickness, 0.001, 0.05, "m", hint)
         _check_range("sleeve_wall", self.sleeve_wall, 0.0005, 0.05, "m", hint)
         _check_range("floor_thickness", self.floor_thickness, 0.0005, 0.05, "m", hint)
+        _check_range("peg_chamfer", self.peg_chamfer, 0.0, 0.5 * self.hole_depth, "m",
+                     "the chamfer must end in the hole's lower half; shorten it")  # fmt: skip
+        _check_range("peg_chamfer_angle", self.peg_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
         return self

@@ -45,11 +45,23 @@ class SamplerConfig:
     """Yaw of the hole about its axis, rad."""
     clearance: float = 0.001
     """Clearance, m (fixed, not sampled: 1 mm for training)."""
+    peg_chamfer: tuple[float, float] = (0.0, 0.0)
+    """Length of the chamfer on the peg's tip, m (Table I: none). Drawn after every other
+    parameter, and only where the range is not (0, 0), so the other parameters of a seed stay
+    as without it. A draw too long for its peg's bottom face is drawn again, as a footprint
+    refusal is (assetgen.geometry.solids.ChamferError)."""
+    peg_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
+    """Angle of the chamfer's faces from the side faces, rad."""
 
     @property
     def finest_clearance(self) -> float:
         """The finest clearance of a module, m (its only one): it sets the physics' timestep."""
         return self.clearance
+
+    @property
+    def chamfered(self) -> bool:
+        """Whether the pegs get a chamfer (a range other than (0, 0))."""
+        return self.peg_chamfer != (0.0, 0.0)
 
     def with_clearance(self, clearance: float) -> SamplerConfig:
         """This config with the module's clearance set, m (`sample --clearance-mm`)."""
@@ -93,6 +105,8 @@ class SamplerConfig:
             hole_tilt_y=self.hole_tilt[i],
             hole_yaw=self.hole_yaw[i],
             clearance=self.clearance,
+            peg_chamfer=self.peg_chamfer[i],
+            peg_chamfer_angle=self.peg_chamfer_angle[i],
         )
 
     def sample(self, seed: int, draw: int = 0) -> ModuleParams:
@@ -100,7 +114,10 @@ class SamplerConfig:
         return sample_params(self, seed, draw)
 
     def to_json(self) -> dict:
-        return config_to_json(self)
+        out = config_to_json(self)
+        if not self.chamfered and self.peg_chamfer_angle == (45 * DEG, 45 * DEG):
+            del out["peg_chamfer"], out["peg_chamfer_angle"]  # Table I specs keep their form
+        return out
 
     @staticmethod
     def from_json(d: dict) -> SamplerConfig:
@@ -140,7 +157,7 @@ def sample_params(config: SamplerConfig, seed: int, draw: int = 0) -> ModulePara
     # Fixed draw order: changing it changes every dataset (bump GENERATOR_VERSION if you do).
     is_polygon = bool(rng.random() < config.polygon_probability)
     n_poly = int(rng.integers(config.polygon_vertices[0], config.polygon_vertices[1] + 1))
-    return ModuleParams(
+    params = ModuleParams(
         n_vertices=n_poly if is_polygon else config.circle_vertices,
         circumradius=u(config.circumradius),
         aspect_ratio=u(config.aspect_ratio),
@@ -155,6 +172,10 @@ def sample_params(config: SamplerConfig, seed: int, draw: int = 0) -> ModulePara
         hole_yaw=u(config.hole_yaw),
         clearance=config.clearance,
     )
+    if not config.chamfered:
+        return params
+    return replace(params, peg_chamfer=u(config.peg_chamfer),
+                   peg_chamfer_angle=u(config.peg_chamfer_angle))  # fmt: skip
 
 
 def check_ranges(config, skip: tuple[str, ...] = ()) -> None:

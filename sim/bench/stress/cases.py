@@ -118,12 +118,13 @@ class Run:
 
 def _cross_section(peg: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Side planes of the peg (peg frame) and its bottom corners: (normals (k, 3), offsets
-    (k,), bottom vertices (m, 3)). A side plane is n . x <= d."""
+    (k,), bottom vertices (m, 3)). A side plane is n . x <= d. The sides reach the peg's top
+    (a chamfer's faces around the tip do not: the hole is the unchamfered peg's)."""
     v, f = peg.vertices, peg.faces
     tri = v[f]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    side = np.abs(n[:, 2]) < 0.999
+    side = (np.abs(n[:, 2]) < 0.999) & (tri[:, :, 2].max(axis=1) > v[:, 2].max() - 1e-9)
     d = np.einsum("ij,ij->i", n[side], tri[side, 0])
     planes = np.unique(np.round(np.column_stack([n[side], d]), 9), axis=0)
     bottom = v[v[:, 2] < 1e-9]
