@@ -97,6 +97,15 @@ def _cell_planes(
     return [np.vstack([-hole_planes[i : i + 1], rivals[i]]) for i in range(k)]
 
 
+def _beyond_chamfer(cells: list[np.ndarray], chamfer: np.ndarray) -> list[np.ndarray]:
+    """Each side's cell also beyond that side's entrance chamfer face (a face of the module:
+    it never moves); the floor's cell as it is. Every side opens at the same rate, so the
+    cells still tile the material (assetgen.geometry.solids.entrance_chamfer_planes)."""
+    if not len(chamfer):
+        return cells
+    return [np.vstack([c, -chamfer[i : i + 1]]) for i, c in enumerate(cells[:-1])] + cells[-1:]
+
+
 def _box_planes(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     eye = np.eye(3)
     return np.vstack([np.column_stack([eye, hi]), np.column_stack([-eye, -lo])])
@@ -168,7 +177,7 @@ def exact_decomposition(
     mitred = geom.sleeve_planes[:k]
     box = geom.sleeve_planes[k : k + 4]
     wall_cap = np.vstack([box, [[0.0, 0.0, 1.0, 0.0]]])
-    cells = _cell_planes(hp, nbrs, overlap)
+    cells = _beyond_chamfer(_cell_planes(hp, nbrs, overlap), geom.hole_chamfer_planes)
     # Without overlap, inside cell i every s_j <= s_i, so of the mitred planes only i's own,
     # its neighbours' and the floor's (thickness may differ from the wall's) can bind; a
     # cell reaching past its seams may cross others' (added below).
@@ -191,7 +200,7 @@ def exact_decomposition(
     # the same cells whatever the overlap (a box plane may cut only where another one
     # already did: no cell of its own).
     bare_box = _box_planes(np.array([*lo, -t]), np.array([*hi, 0.0]))
-    bare = _cell_planes(hp, nbrs, 0.0)
+    bare = _beyond_chamfer(_cell_planes(hp, nbrs, 0.0), geom.hole_chamfer_planes)
 
     def plate_cells(i: int, shift: float, region: np.ndarray, cell: np.ndarray) -> list:
         """Cell i's plate pieces within `region`, their outline planes moved `shift`."""

@@ -75,7 +75,8 @@ def check_pieces(pieces: Sequence[Mesh], peg: Mesh, geom: ModuleGeometry, travel
     swept = np.vstack([peg.transformed(start).vertices, seated])
     bodies = [seated, swept]
     sets = [m.vertices for m in pieces]
-    bound = separation_bounds(sets, bodies, unit_directions(geom.hole_planes[:, :3]))
+    normals = np.vstack([geom.hole_planes[:, :3], geom.hole_chamfer_planes[:, :3]])
+    bound = separation_bounds(sets, bodies, unit_directions(normals))
     need = c - CLEARANCE_TOLERANCE
     unproven = np.flatnonzero(bound.min(axis=1) < need)
     if len(unproven):
@@ -146,12 +147,18 @@ def check_union(
             -geom.hole_planes,  # beyond hole plane i
             np.column_stack([-eye[:2], -hi]),  # the hole's section's +x, +y side
             np.column_stack([eye[:2], lo]),  # its -x, -y side
+            -geom.hole_chamfer_planes,  # beyond side i's entrance chamfer face
         ]
     )
     worst = largest_residuals(pieces, rows)
+    chamfer = len(geom.hole_chamfer_planes)
+    worst, beyond_chamfer = worst[:, : len(rows) - chamfer], worst[:, len(rows) - chamfer :]
     plate = worst[:, :6].max(axis=1)
     sleeve = worst[:, 6 : 6 + len(geom.sleeve_planes)].max(axis=1)
-    beyond = worst[:, -k - 4 : -4].min(axis=1)
+    # beyond side i means beyond its chamfer face too, where the entrance has one
+    hole_faces = worst[:, -k - 4 : -4].copy()
+    hole_faces[:, :chamfer] = np.maximum(hole_faces[:, :chamfer], beyond_chamfer)
+    beyond = hole_faces.min(axis=1)
     side = worst[:, -4:].min(axis=1)  # only where the piece is in the plate
     outside = np.maximum(
         np.minimum(plate, sleeve),

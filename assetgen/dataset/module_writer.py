@@ -8,6 +8,7 @@ module that fails a check is never written.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import shutil
 from collections.abc import Iterator
@@ -185,6 +186,11 @@ def write_module(
                 checks["peg_chamfer"] = {
                     "sides_start_m": params.peg_chamfer,
                     "bottom_inset_m": chamfer_inset(params),
+                }
+            if params.hole_chamfer:  # where the entrance's chamfer meets the exact faces
+                checks["hole_chamfer"] = {
+                    "depth_m": params.hole_chamfer,
+                    "width_m": params.hole_chamfer * math.tan(params.hole_chamfer_angle),
                 }
             if printed is not None:  # the printed hole, written in the simulation's place
                 data = ctx.write("module.stl", stl_bytes(printed))

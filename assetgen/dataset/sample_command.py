@@ -13,6 +13,7 @@ NUMBERS = {
     "seed": Bound(low=0, hint="seeds are non-negative integers"),
     "workers": count("give at least 1 process, or leave it out (all cores)"),
     "peg_chamfer_deg": Bound(low=5, high=60, hint="give the chamfer 5 to 60 deg from the sides"),
+    "hole_chamfer_deg": Bound(low=5, high=60, hint="give the chamfer 5 to 60 deg from the sides"),
 }
 """The bounds of sample's numeric flags (assetgen.core.preflight); --clearance-mm is the
 sampler config's clearance, which validates it (finite, positive) before anything is
@@ -57,6 +58,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=45.0,
         metavar="DEG",
         help="the chamfer's angle from the side faces (default 45)",
+    )
+    s.add_argument(
+        "--hole-chamfer",
+        metavar="MM[,MM]",
+        help="chamfer the holes' entrances (peg-in-hole): this deep below the surface, or drawn "
+        "from LOW,HIGH, in mm; below it the hole keeps the exact clearance",
+    )
+    s.add_argument(
+        "--hole-chamfer-deg",
+        type=float,
+        default=45.0,
+        metavar="DEG",
+        help="the entrance chamfer's angle from the hole's side faces (default 45)",
     )
     s.add_argument("--formats", help="comma-separated simulation formats (default: all)")
     s.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
@@ -149,8 +163,9 @@ def sample_spec(args: argparse.Namespace):
     config = fam.sampler()
     if args.clearance_mm is not None:  # the family's first step's clearance
         config = config.with_clearance(args.clearance_mm / 1000.0)
-    if getattr(args, "peg_chamfer", None) is not None:
-        config = _chamfered(config, args, fam.name)
+    for part in ("peg", "hole"):
+        if getattr(args, f"{part}_chamfer", None) is not None:
+            config = _chamfered(config, args, fam.name, part)
     formats = tuple(args.formats.split(",")) if args.formats else available_formats()
     spec = DatasetSpec(
         name=Path(args.out).name,
@@ -163,31 +178,34 @@ def sample_spec(args: argparse.Namespace):
     return Path(args.out), _printed(spec, args)
 
 
-def _chamfered(config, args: argparse.Namespace, name: str):
-    """The sampler config with --peg-chamfer (mm) and --peg-chamfer-deg set; DatasetError
-    for a family without it, or a length that is not one or two numbers in mm."""
+def _chamfered(config, args: argparse.Namespace, name: str, part: str):
+    """The sampler config with --{part}-chamfer (mm) and --{part}-chamfer-deg set (part: peg
+    or hole); DatasetError for a family without it, or a length that is not one or two
+    numbers in mm."""
     import math
     from dataclasses import replace
 
     from assetgen.dataset.spec import DatasetError
 
-    if not hasattr(config, "peg_chamfer"):
+    flag, text = f"--{part}-chamfer", getattr(args, f"{part}_chamfer")
+    if not hasattr(config, f"{part}_chamfer"):
         raise DatasetError(
-            f"--peg-chamfer: the {name} family has no peg chamfer; peg-in-hole (Table I) has"
+            f"{flag}: the {name} family has no {part} chamfer; peg-in-hole (Table I) has"
         )
     try:
-        mm = [float(x) for x in args.peg_chamfer.split(",")]
+        mm = [float(x) for x in text.split(",")]
     except ValueError:
         mm = []
     if len(mm) == 1:
         mm *= 2
     if len(mm) != 2 or not all(math.isfinite(x) and 0 < x <= 50 for x in mm) or mm[0] > mm[1]:
         raise DatasetError(
-            f"--peg-chamfer {args.peg_chamfer}: give a length in mm, or LOW,HIGH with "
-            "0 < LOW <= HIGH <= 50 (e.g. --peg-chamfer 1 or --peg-chamfer 0.5,2)"
+            f"{flag} {text}: give a length in mm, or LOW,HIGH with 0 < LOW <= HIGH <= 50 "
+            f"(e.g. {flag} 1 or {flag} 0.5,2)"
         )
-    angle = math.radians(args.peg_chamfer_deg)
-    return replace(config, peg_chamfer=(mm[0] / 1e3, mm[1] / 1e3), peg_chamfer_angle=(angle, angle))
+    angle = math.radians(getattr(args, f"{part}_chamfer_deg"))
+    lengths = (mm[0] / 1e3, mm[1] / 1e3)
+    return replace(config, **{f"{part}_chamfer": lengths, f"{part}_chamfer_angle": (angle,) * 2})
 
 
 def _printed(spec, args: argparse.Namespace):

@@ -12,7 +12,7 @@ Pure geometry: nothing here touches the disk. Construction (all exact up to floa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import manifold3d as mf
 import numpy as np
@@ -79,6 +79,9 @@ class ModuleGeometry:
     design_pose: Frame
     module_genus: int
     module_volume: float
+    hole_chamfer_planes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    """(k - 1, 4) the entrance chamfer's faces, one a side face of the hole (module frame,
+    unit normals, n . x <= d inside the chamfer's part of the hole); none without one."""
 
 
 def cross_section(p: ModuleParams) -> np.ndarray:
@@ -287,12 +290,39 @@ def _body(
     return plate + mf.Manifold.hull_points(sleeve), sleeve
 
 
+def entrance_chamfer_planes(p: ModuleParams, hole_planes: np.ndarray) -> np.ndarray:
+    """The entrance chamfer's face over each side face of the hole (module frame, unit
+    normals): with s = n . x - d the side's plane, the chamfer's part of the hole is
+    s <= g (z + L), g = tan(angle), L its depth, z the height over the mounting surface. Every
+    side opens at the same rate in s, so the material beyond side i is still one convex cell
+    (beyond i, and beyond its chamfer face), as the exact decomposition needs."""
+    if not p.hole_chamfer:
+        return np.zeros((0, 4))
+    g = math.tan(p.hole_chamfer_angle)
+    sides = hole_planes[:-1]
+    rows = np.column_stack([sides[:, :2], sides[:, 2] - g, sides[:, 3] + g * p.hole_chamfer])
+    return rows / norm(rows[:, :3])[:, None]
+
+
+def _hole_solid(hole_planes: np.ndarray, chamfer: np.ndarray, depth: float) -> mf.Manifold:
+    """The hole (capped above the surface), with its entrance chamfer's part (down to `depth`
+    below the surface, where it meets the side faces) where it has one."""
+    hole = mf.Manifold.hull_points(polytope_vertices(np.vstack([hole_planes, _cap(HOLE_CAP_Z)])))
+    if not len(chamfer):
+        return hole
+    bevel = np.vstack([chamfer, _cap(HOLE_CAP_Z), [[0.0, 0.0, -1.0, depth]]])
+    return hole + mf.Manifold.hull_points(polytope_vertices(bevel))
+
+
 def printed_module(geom: ModuleGeometry, offset: float) -> Mesh:
     """The module with its hole's faces moved out by `offset` (m) more, every other face as
     it is: the file to give a printer whose holes come out `offset` undersize."""
     p = geom.params
-    capped = np.vstack([offset_planes(geom.hole_planes, offset), _cap(HOLE_CAP_Z)])
-    hole = mf.Manifold.hull_points(polytope_vertices(capped))
+    hole = _hole_solid(
+        offset_planes(geom.hole_planes, offset),
+        offset_planes(geom.hole_chamfer_planes, offset),
+        p.hole_chamfer,
+    )
     axis = geom.bottom.matrix()[:3, 2]
     body, _ = _body(p, geom.sleeve_planes, np.array(geom.bottom.pos), axis)
     return _to_mesh(body - hole)
@@ -324,6 +354,10 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
             "the hole does not reach the mounting surface; increase hole_depth_fraction"
         )
     section = polytope_vertices(slab)[:, :2]
+    chamfer = entrance_chamfer_planes(p, hole_planes)
+    if len(chamfer):  # the entrance is wider: its section in the plate
+        bevel = np.vstack([chamfer, slab[-2:], [[0.0, 0.0, -1.0, p.hole_chamfer]]])
+        section = np.vstack([section, polytope_vertices(bevel)[:, :2]])
     extent = np.abs(section).max() + p.sleeve_wall
     if extent > half:
         raise GeometryError(
@@ -334,7 +368,10 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         )
 
     sleeve_planes = sleeve_half_spaces(p, hole_planes, hole_vertices, design_m)
-    hole = mf.Manifold.hull_points(hole_vertices)
+    if len(chamfer):
+        hole = _hole_solid(hole_planes, chamfer, p.hole_chamfer)
+    else:  # the hull of the vertices already at hand (Table I's bytes)
+        hole = mf.Manifold.hull_points(hole_vertices)
     body, sleeve = _body(p, sleeve_planes, np.array(bottom.pos), axis)
     if sleeve is not None:
         # a tilted, deep hole leans out: the sleeve hanging below the plate must stay inside
@@ -363,6 +400,7 @@ def build_module(p: ModuleParams) -> ModuleGeometry:
         design_pose=design,
         module_genus=int(module.genus()),
         module_volume=float(module.volume()),
+        hole_chamfer_planes=chamfer,
     )
 
 

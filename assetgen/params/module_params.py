@@ -23,6 +23,11 @@ def _check_range(name: str, value: float, lo: float, hi: float, unit: str, hint:
         )
 
 
+CHAMFER_WALL_SHARE = 0.8
+"""An entrance chamfer widens the hole by at most this share of the wall around it (the
+chamfer stays inside the pieces that hold the hole's faces)."""
+
+
 @dataclass(frozen=True)
 class ModuleParams:
     """Everything that defines one peg-in-hole module. SI units (m, rad).
@@ -75,9 +80,19 @@ class ModuleParams:
     peg_chamfer * tan(peg_chamfer_angle). The hole is the unchamfered peg's."""
     peg_chamfer_angle: float = math.pi / 4
     """Angle of the chamfer's faces from the side faces they cut, rad (5 - 60 deg)."""
+    hole_chamfer: float = 0.0
+    """Depth of the chamfer around the hole's entrance below the mounting surface, m (0: none,
+    Table I; at most the plate's thickness). Below it the hole's faces are at the exact
+    clearance; above, each side face opens by tan(hole_chamfer_angle) per metre of height
+    (for a hole square to the plate: a bevel of that angle from the wall)."""
+    hole_chamfer_angle: float = math.pi / 4
+    """Angle of the entrance chamfer's faces from the hole's side faces, rad (5 - 60 deg)."""
 
-    CHAMFER_FIELDS = ("peg_chamfer", "peg_chamfer_angle")
-    """Written to module.json only with a chamfer, so Table I's records keep their form."""
+    CHAMFER_FIELDS = (
+        ("peg_chamfer", "peg_chamfer_angle"),
+        ("hole_chamfer", "hole_chamfer_angle"),
+    )
+    """Written to module.json only with that chamfer, so Table I's records keep their form."""
 
     @property
     def hole_depth(self) -> float:
@@ -86,9 +101,9 @@ class ModuleParams:
 
     def to_json(self) -> dict:
         out = asdict(self)
-        if not self.peg_chamfer:
-            for k in self.CHAMFER_FIELDS:
-                del out[k]
+        for length, angle in self.CHAMFER_FIELDS:
+            if not out[length]:
+                del out[length], out[angle]
         return out
 
     @staticmethod
@@ -137,4 +152,15 @@ class ModuleParams:
         _check_range("peg_chamfer", self.peg_chamfer, 0.0, 0.5 * self.hole_depth, "m",
                      "the chamfer must end in the hole's lower half; shorten it")  # fmt: skip
         _check_range("peg_chamfer_angle", self.peg_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
+        _check_range("hole_chamfer", self.hole_chamfer, 0.0, self.plate_thickness, "m",
+                     "the entrance chamfer ends within the plate; make it shallower")  # fmt: skip
+        _check_range("hole_chamfer_angle", self.hole_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
+        width = self.hole_chamfer * math.tan(self.hole_chamfer_angle)
+        if width > CHAMFER_WALL_SHARE * self.sleeve_wall:
+            raise ParamError(
+                f"hole_chamfer = {self.hole_chamfer * 1e3:g} mm at "
+                f"{math.degrees(self.hole_chamfer_angle):g} deg widens the entrance by "
+                f"{width * 1e3:.3f} mm, more than {CHAMFER_WALL_SHARE:g} of the "
+                f"{self.sleeve_wall * 1e3:g} mm wall around the hole: make it shallower or steeper"
+            )
         return self

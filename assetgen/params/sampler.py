@@ -52,6 +52,11 @@ class SamplerConfig:
     refusal is (assetgen.geometry.solids.ChamferError)."""
     peg_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
     """Angle of the chamfer's faces from the side faces, rad."""
+    hole_chamfer: tuple[float, float] = (0.0, 0.0)
+    """Depth of the chamfer around the hole's entrance, m (Table I: none); drawn after the
+    peg's chamfer, and only where the range is not (0, 0)."""
+    hole_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
+    """Angle of the entrance chamfer's faces from the hole's side faces, rad."""
 
     @property
     def finest_clearance(self) -> float:
@@ -62,6 +67,11 @@ class SamplerConfig:
     def chamfered(self) -> bool:
         """Whether the pegs get a chamfer (a range other than (0, 0))."""
         return self.peg_chamfer != (0.0, 0.0)
+
+    @property
+    def hole_chamfered(self) -> bool:
+        """Whether the holes' entrances get a chamfer (a range other than (0, 0))."""
+        return self.hole_chamfer != (0.0, 0.0)
 
     def with_clearance(self, clearance: float) -> SamplerConfig:
         """This config with the module's clearance set, m (`sample --clearance-mm`)."""
@@ -107,6 +117,8 @@ class SamplerConfig:
             clearance=self.clearance,
             peg_chamfer=self.peg_chamfer[i],
             peg_chamfer_angle=self.peg_chamfer_angle[i],
+            hole_chamfer=self.hole_chamfer[i],
+            hole_chamfer_angle=self.hole_chamfer_angle[i],
         )
 
     def sample(self, seed: int, draw: int = 0) -> ModuleParams:
@@ -115,8 +127,12 @@ class SamplerConfig:
 
     def to_json(self) -> dict:
         out = config_to_json(self)
-        if not self.chamfered and self.peg_chamfer_angle == (45 * DEG, 45 * DEG):
-            del out["peg_chamfer"], out["peg_chamfer_angle"]  # Table I specs keep their form
+        for on, length, angle in (
+            (self.chamfered, "peg_chamfer", "peg_chamfer_angle"),
+            (self.hole_chamfered, "hole_chamfer", "hole_chamfer_angle"),
+        ):
+            if not on and out[angle] == [45 * DEG, 45 * DEG]:
+                del out[length], out[angle]  # Table I specs keep their form
         return out
 
     @staticmethod
@@ -172,10 +188,13 @@ def sample_params(config: SamplerConfig, seed: int, draw: int = 0) -> ModulePara
         hole_yaw=u(config.hole_yaw),
         clearance=config.clearance,
     )
-    if not config.chamfered:
-        return params
-    return replace(params, peg_chamfer=u(config.peg_chamfer),
-                   peg_chamfer_angle=u(config.peg_chamfer_angle))  # fmt: skip
+    if config.chamfered:  # drawn last, and only when asked: no other parameter moves
+        params = replace(params, peg_chamfer=u(config.peg_chamfer),
+                         peg_chamfer_angle=u(config.peg_chamfer_angle))  # fmt: skip
+    if config.hole_chamfered:
+        params = replace(params, hole_chamfer=u(config.hole_chamfer),
+                         hole_chamfer_angle=u(config.hole_chamfer_angle))  # fmt: skip
+    return params
 
 
 def check_ranges(config, skip: tuple[str, ...] = ()) -> None:

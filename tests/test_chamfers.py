@@ -1,5 +1,6 @@
-"""A chamfer on the peg's tip: the hole and its exact clearance stay the unchamfered peg's, the
-side faces start where module.json says, Table I without it is untouched."""
+"""Chamfers on the peg's tip and around the hole's entrance: the exact clearance holds below
+them, the checks say where they start, the collision pieces still make up the module, and
+Table I without them is untouched."""
 
 from __future__ import annotations
 
@@ -10,10 +11,20 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from assetgen.checks.module_checks import CheckError
+from assetgen.collision import exact
+from assetgen.collision.pieces import collision_pieces
 from assetgen.core.stl import parse_stl_mm
 from assetgen.dataset.module_writer import generate_module, write_module
 from assetgen.formats.registry import EXPORTERS
-from assetgen.geometry.solids import ChamferError, build_module, chamfer_inset, peg_planes
+from assetgen.geometry.solids import (
+    HOLE_CAP_Z,
+    ChamferError,
+    build_module,
+    chamfer_inset,
+    insertion_travel,
+    peg_planes,
+)
 from assetgen.params.module_params import ModuleParams, ParamError
 from assetgen.params.sampler import SamplerConfig, sample_params
 from sim.bench.stress.cases import _cross_section
@@ -25,7 +36,14 @@ def test_table_one_is_untouched():
     """Without a chamfer, params and sampler configs keep their JSON form and every seed its
     parameters; with one, a seed's other parameters are those it had without."""
     p = sample_params(SamplerConfig(), 5)
-    assert "peg_chamfer" not in p.to_json() and "peg_chamfer" not in SamplerConfig().to_json()
+    for key in ("peg_chamfer", "hole_chamfer"):
+        assert key not in p.to_json() and key not in SamplerConfig().to_json()
+    both = replace(CHAMFERED, hole_chamfer=(0.001, 0.002))
+    r = sample_params(both, 5)
+    assert replace(r, hole_chamfer=0.0, hole_chamfer_angle=math.pi / 4) == sample_params(
+        CHAMFERED, 5
+    )
+    assert ModuleParams.from_json(r.to_json()) == r
     assert ModuleParams.from_json(p.to_json()) == p
     q = sample_params(CHAMFERED, 5)
     assert q.peg_chamfer > 0 and replace(q, peg_chamfer=0.0, peg_chamfer_angle=math.pi / 4) == p
@@ -117,3 +135,92 @@ def test_the_sample_command_takes_a_chamfer_in_mm(tmp_path, capsys):
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1
         assert not (tmp_path / "x").exists()
+
+
+HOLE = SamplerConfig(hole_chamfer=(0.001, 0.004), hole_chamfer_angle=(0.4, 0.7))
+
+
+def _resid(points: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    return (points @ planes[:, :3].T - planes[:, 3]).max(axis=1)
+
+
+def test_the_entrance_chamfer_opens_above_its_depth_and_the_clearance_holds_below(tmp_path):
+    p = sample_params(HOLE, 4)
+    r = write_module(p, 4, tmp_path, tuple(EXPORTERS))
+    assert r["checks"]["clearance_m"] == pytest.approx(p.clearance, abs=1e-6)
+    assert r["checks"]["insertion_min_distance_m"] == pytest.approx(p.clearance, abs=1e-6)
+    width = p.hole_chamfer * math.tan(p.hole_chamfer_angle)
+    assert r["checks"]["hole_chamfer"] == {
+        "depth_m": pytest.approx(p.hole_chamfer),
+        "width_m": pytest.approx(width),
+    }
+    # on the written plate: no vertex inside the chamfered hole, and each side's widened
+    # entrance edge is there, `width` out from the side's plane on the surface (s units)
+    g = build_module(p)
+    module = parse_stl_mm((tmp_path / "000004" / "module.stl").read_bytes())
+    v = module.vertices
+    s = v @ g.hole_planes[:-1, :3].T - g.hole_planes[:-1, 3]
+    opening = np.maximum(0.0, math.tan(p.hole_chamfer_angle) * (v[:, 2:3] + p.hole_chamfer))
+    inside = (s - opening).max(axis=1) < -1e-7
+    below = v @ g.hole_planes[-1, :3] - g.hole_planes[-1, 3] < -1e-7
+    assert not (inside & below).any()
+    on_surface = np.abs(v[:, 2]) < 1e-9
+    for i in range(len(g.hole_planes) - 1):
+        assert np.isclose(s[on_surface, i], width, atol=1e-7).sum() >= 2
+    # the same module without the chamfer keeps the exact faces everywhere
+    plain = write_module(replace(p, hole_chamfer=0.0), 4, tmp_path / "plain", ())
+    assert "hole_chamfer" not in plain["checks"]
+
+
+@pytest.mark.parametrize("seed", [0, 2, 9])
+def test_the_pieces_still_fill_the_module_around_a_chamfered_entrance(seed):
+    """Points of the module near the entrance, 2 um off its faces, each inside a piece."""
+    g = build_module(sample_params(HOLE, seed))
+    p = g.params
+    _, systems = exact.exact_decomposition(g)
+    rng = np.random.default_rng(seed)
+    r = p.circumradius + 0.012
+    pts = np.array(g.entrance.pos) + rng.uniform([-r, -r, -0.012], [r, r, 0.0], (40000, 3))
+    t, half = p.plate_thickness, p.plate_size / 2
+    plate = np.maximum(np.abs(pts[:, :2]).max(axis=1) - half,
+                       np.maximum(pts[:, 2], -t - pts[:, 2]))  # fmt: skip
+    solid = np.minimum(plate, _resid(pts, g.sleeve_planes))
+    cap = np.array([[0.0, 0.0, 1.0, HOLE_CAP_Z]])
+    hole = _resid(pts, np.vstack([g.hole_planes, cap]))
+    bevel = _resid(pts, np.vstack([g.hole_chamfer_planes, cap, [[0, 0, -1.0, p.hole_chamfer]]]))
+    q = pts[(solid < -2e-6) & (np.minimum(hole, bevel) > 2e-6)]
+    assert len(q) > 5000
+    best = np.min([_resid(q, s) for s in systems], axis=0)
+    assert (best <= 1e-9).all()
+    # and a piece dropped leaves points uncovered: the test sees a gap
+    assert (np.min([_resid(q, s) for s in systems[1:]], axis=0) > 1e-9).any()
+
+
+def test_pieces_that_ignore_the_chamfer_are_refused(monkeypatch):
+    g = build_module(sample_params(HOLE, 2))
+    collision_pieces(g, insertion_travel(g))  # as built: accepted
+    monkeypatch.setattr(exact, "_beyond_chamfer", lambda cells, chamfer: cells)
+    with pytest.raises(CheckError, match="outside the module"):
+        collision_pieces(g, insertion_travel(g))
+
+
+def test_an_entrance_chamfer_too_wide_or_deep_is_refused(tmp_path, capsys):
+    from cli import main
+
+    p = sample_params(SamplerConfig(), 3)
+    with pytest.raises(ParamError, match=r"hole_chamfer = 4 mm at 60 deg widens the entrance"):
+        replace(p, hole_chamfer=0.004, hole_chamfer_angle=math.radians(60)).validate()
+    with pytest.raises(ParamError, match=r"hole_chamfer = 0.006 m is outside .* within the plate"):
+        replace(p, hole_chamfer=0.006).validate()
+    with pytest.raises(ParamError, match="unbuildable module: hole_chamfer"):
+        SamplerConfig(hole_chamfer=(0.001, 0.005)).validate()
+    out = tmp_path / "h"
+    assert main(["sample", "--n", "2", "--out", str(out), "--hole-chamfer", "1,2",
+                 "--formats", "mjcf", "--print-offset", "0.2", "--quiet"]) == 0  # fmt: skip
+    config = json.loads((out / "dataset.json").read_text())["spec"]["config"]
+    assert config["hole_chamfer"] == [0.001, 0.002]
+    capsys.readouterr()
+    assert main(["sample", "--n", "1", "--out", str(tmp_path / "x"), "--hole-chamfer", "5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "widens the entrance" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x").exists()
