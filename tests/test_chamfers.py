@@ -220,6 +220,10 @@ def test_an_entrance_chamfer_too_wide_or_deep_is_refused(tmp_path, capsys):
     config = json.loads((out / "dataset.json").read_text())["spec"]["config"]
     assert config["hole_chamfer"] == [0.001, 0.002]
     capsys.readouterr()
+    # the stress benchmark aims at the unchamfered entrance's edges: refused, in one line
+    assert main(["bench", "contacts", str(out), "--limit", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "its holes' entrances are chamfered" in err and len(err.splitlines()) == 1
     assert main(["sample", "--n", "1", "--out", str(tmp_path / "x"), "--hole-chamfer", "5"]) == 2
     err = capsys.readouterr().err.strip()
     assert "widens the entrance" in err and len(err.splitlines()) == 1

@@ -40,6 +40,13 @@ def main(args) -> int:
     from sim.assets.loading import load_dataset
 
     root, _ = resolve(args.dataset)
+    config = Dataset(root).spec.config
+    if getattr(config, "hole_chamfered", False):
+        raise ValueError(
+            f"{args.dataset}: its holes' entrances are chamfered, and the benchmark's pushes "
+            "and impacts aim at the unchamfered entrance's edges: run it on a dataset "
+            "without --hole-chamfer"
+        )
     ids = Dataset(root).ids
     if args.limit is not None:
         if args.limit < 1:
