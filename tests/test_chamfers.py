@@ -228,3 +228,35 @@ def test_an_entrance_chamfer_too_wide_or_deep_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "widens the entrance" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_multi_peg_tips_chamfered_over_the_unchamfered_holes(tmp_path):
+    """The carrier's pegs get the chamfer, the plate keeps its bytes (each hole is its
+    unchamfered peg's) and the clearance its measure; the other parameters of a seed stay."""
+    from assetgen.dataset.families import family
+    from assetgen.families.multi_peg import MultiPegParams, MultiPegSampler
+
+    fam = family("multi-peg")
+    plain = MultiPegSampler()
+    chamfered = replace(plain, peg_chamfer=(0.0008, 0.0012), peg_chamfer_angle=(0.6, 0.7))
+    assert "peg_chamfer" not in plain.to_json() and "peg_chamfer" not in plain.sample(1).to_json()
+    p = chamfered.sample(1)
+    assert replace(p, peg_chamfer=0.0, peg_chamfer_angle=math.pi / 4) == plain.sample(1)
+    assert MultiPegParams.from_json(p.to_json()) == p
+    a = fam.write(1, chamfered, tmp_path / "a", ("mjcf",), None, 0.0)
+    fam.write(1, plain, tmp_path / "b", ("mjcf",), None, 0.0)
+    folder_a, folder_b = tmp_path / "a" / "000001", tmp_path / "b" / "000001"
+    assert (folder_a / "base.stl").read_bytes() == (folder_b / "base.stl").read_bytes()
+    assert a["checks"]["steps"][0]["clearance_m"] == pytest.approx(p.clearance, abs=1e-6)
+    # the tips: the carrier's lowest vertices lie the inset inside their peg's sides
+    carrier = parse_stl_mm((folder_a / "carrier.stl").read_bytes())
+    tips = carrier.vertices[carrier.vertices[:, 2] < carrier.vertices[:, 2].min() + 1e-9]
+    assert len(tips) == sum(n for _, _, n, _, _ in p.pegs)
+    x, y, n, r, _ = p.pegs[0]
+    inradius = r * math.cos(math.pi / n)
+    reference = tips[np.hypot(tips[:, 0] - x, tips[:, 1] - y) < r]
+    assert len(reference) == n
+    assert np.allclose(np.hypot(reference[:, 0] - x, reference[:, 1] - y) * math.cos(math.pi / n),
+                       inradius - p.chamfer_inset, atol=1e-7)  # fmt: skip
+    with pytest.raises(ParamError, match="the smallest peg takes"):
+        replace(plain, peg_chamfer=(0.001, 0.004)).validate()

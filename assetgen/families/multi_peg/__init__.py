@@ -17,7 +17,7 @@ the carrier exactly as it observes a peg: the 18-D observation and every agent c
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from assetgen.families.profile import (
     frames,
     plate,
     prism,
+    section_planes,
     sleeve,
     sleeve_reach,
 )
@@ -81,10 +82,22 @@ class MultiPegParams:
     """Turn of the pattern about the axis, rad (-pi - pi)."""
     clearance: float = 1e-3
     """Gap between each peg and its hole, m (0 - 5 mm)."""
+    peg_chamfer: float = 0.0
+    """Length of the chamfer on every peg's tip along the axis, m (0: none; at most half the
+    hole's depth). The side faces, and the exact clearance, start this far above the tip;
+    below, each side's chamfer face leans in to the tip, whose edges move in by
+    peg_chamfer * tan(peg_chamfer_angle). Each hole is its unchamfered peg's."""
+    peg_chamfer_angle: float = math.pi / 4
+    """Angle of the chamfer's faces from the side faces, rad (5 - 60 deg)."""
 
     @property
     def hole_depth(self) -> float:
         return self.depth_fraction * self.peg_length
+
+    @property
+    def chamfer_inset(self) -> float:
+        """How far the chamfer moves each peg tip's edges in, m."""
+        return self.peg_chamfer * math.tan(self.peg_chamfer_angle)
 
     def validate(self) -> MultiPegParams:
         if not 2 <= len(self.pegs) <= 4:
@@ -112,6 +125,8 @@ class MultiPegParams:
                     f"peg {k}: {n} sides, circumradius {r * 1e3:g} mm; give 3-8 sides or "
                     f"{ROUND}, and 4-10 mm"
                 )
+        if self.peg_chamfer:
+            self._check_chamfer()
         for i in range(len(self.pegs)):
             for j in range(i):
                 (xi, yi, _, ri, _), (xj, yj, _, rj, _) = self.pegs[i], self.pegs[j]
@@ -123,9 +138,32 @@ class MultiPegParams:
                     )
         return self
 
+    def _check_chamfer(self) -> None:
+        """ParamError where the chamfer is out of its ranges or a peg's tip cannot take it
+        (its edges would move in by more than CHAMFER_FILL of its inradius)."""
+        if not (0 <= self.peg_chamfer <= 0.5 * self.hole_depth):
+            raise ParamError(
+                f"peg_chamfer = {self.peg_chamfer * 1e3:g} mm; give 0 to half the hole's depth "
+                f"({0.5 * self.hole_depth * 1e3:.2f} mm)"
+            )
+        if not 5 * DEG <= self.peg_chamfer_angle <= 60 * DEG:
+            raise ParamError(
+                f"peg_chamfer_angle = {math.degrees(self.peg_chamfer_angle):g} deg; give 5-60 deg"
+            )
+        for k, (_, _, n, r, _) in enumerate(self.pegs):
+            limit = CHAMFER_FILL * r * math.cos(math.pi / n)  # a regular n-gon's inradius
+            if self.chamfer_inset > limit:
+                raise ParamError(
+                    f"peg {k}: the chamfer moves its tip's edges in by "
+                    f"{self.chamfer_inset * 1e3:.3f} mm; its {n}-gon of {r * 1e3:g} mm takes "
+                    f"at most {limit * 1e3:.3f} mm: shorten the chamfer or flatten its angle"
+                )
+
     def to_json(self) -> dict:
         d = asdict(self)
         d["pegs"] = [list(p) for p in self.pegs]
+        if not self.peg_chamfer:  # the records of modules without one keep their form
+            del d["peg_chamfer"], d["peg_chamfer_angle"]
         return d
 
     @staticmethod
@@ -140,6 +178,23 @@ class MultiPegParams:
                 (float(x), float(y), int(n), float(r), float(a)) for x, y, n, r, a in d["pegs"]
             )
         return MultiPegParams(**d).validate()
+
+
+CHAMFER_FILL = 0.8
+"""A peg tip's edges move in by at most this share of its inradius (Table I's rule)."""
+
+
+def chamfered_prism(poly: np.ndarray, length: float, chamfer: float, angle: float) -> np.ndarray:
+    """The straight prism over a convex polygon from z = 0 to `length`, its tip (z = 0)
+    chamfered: below z = `chamfer` each side face gives way to one leaning in by tan(angle)
+    per metre down (each side's half-space n . x <= d - (chamfer - z) tan(angle))."""
+    solid = prism(poly, 0.0, length)
+    if not chamfer:
+        return solid
+    g = math.tan(angle)
+    sides = section_planes(poly)
+    rows = np.column_stack([sides[:, :2], np.full(len(sides), -g), sides[:, 3] - chamfer * g])
+    return np.vstack([solid, rows / math.sqrt(1.0 + g * g)])
 
 
 def _sections(p: MultiPegParams) -> list[np.ndarray]:
@@ -182,7 +237,13 @@ def build_multi_peg(p: MultiPegParams) -> Assembly:
     entrance, bottom, design = frames(p)
     axis = design[:3, 2]
     pegs = [prism(s, 0.0, p.peg_length + EMBED) for s in _sections(p)]
+    # each hole is its unchamfered peg's: the clearance stays exact above the chamfer
     holes = [h for peg in pegs for h in clearance_hole([peg], p.clearance, design, axis, REACH)]
+    if p.peg_chamfer:
+        pegs = [
+            chamfered_prism(s, p.peg_length + EMBED, p.peg_chamfer, p.peg_chamfer_angle)
+            for s in _sections(p)
+        ]
     outline = np.vstack(_sections(p))
     base = Part("base", (plate(), sleeve(p, _reach(p), design)), tuple(holes))
     carrier = Part("carrier", (*pegs, _carrier(p)), (), design)
@@ -220,8 +281,25 @@ class MultiPegSampler(OneClearance):
     """Turn of the pattern about the axis, rad."""
     clearance: float = 1e-3
     """Each peg to its hole, m (fixed; `--clearance-mm` sets it)."""
+    peg_chamfer: tuple[float, float] = (0.0, 0.0)
+    """Length of the chamfer on the pegs' tips, m (default: none). Drawn after every other
+    parameter, and only where the range is not (0, 0), so a seed's other parameters stay;
+    cut to half the hole's depth where that is less."""
+    peg_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
+    """Angle of the chamfer's faces from the side faces, rad."""
 
     WHAT = "multi-peg sampler"
+
+    @property
+    def chamfered(self) -> bool:
+        """Whether the pegs get a chamfer (a range other than (0, 0))."""
+        return self.peg_chamfer != (0.0, 0.0)
+
+    def to_json(self) -> dict:
+        out = super().to_json()
+        if not self.chamfered and out["peg_chamfer_angle"] == [45 * DEG, 45 * DEG]:
+            del out["peg_chamfer"], out["peg_chamfer_angle"]  # earlier specs keep their form
+        return out
 
     def validate(self) -> MultiPegSampler:
         """Ranges of two finite numbers low <= high, probabilities in [0, 1], and the first
@@ -232,6 +310,15 @@ class MultiPegSampler(OneClearance):
                 raise ParamError(f"{name} = {getattr(self, name)} must be in [0, 1]")
         if not 2 <= self.pegs[0] <= self.pegs[1] <= 4:
             raise ParamError(f"pegs = {self.pegs}: a carrier holds 2 to 4")
+        if self.chamfered:  # the longest, flattest chamfer on the smallest peg there can be
+            inset = self.peg_chamfer[1] * math.tan(self.peg_chamfer_angle[1])
+            limit = CHAMFER_FILL * self.radius[0] * math.cos(math.pi / min(self.sides[0], ROUND))
+            if inset > limit:
+                raise ParamError(
+                    f"peg_chamfer up to {self.peg_chamfer[1] * 1e3:g} mm at "
+                    f"{math.degrees(self.peg_chamfer_angle[1]):g} deg moves a tip's edges in by "
+                    f"{inset * 1e3:.3f} mm; the smallest peg takes {limit * 1e3:.3f} mm"
+                )
         for seed in range(4):
             try:
                 build_multi_peg(self.sample(seed))
@@ -287,7 +374,11 @@ class MultiPegSampler(OneClearance):
                 clearance=self.clearance,
             )
             if fits(p):
-                return p
+                if not self.chamfered:
+                    return p
+                length = u(self.peg_chamfer)
+                return replace(p, peg_chamfer=min(length, 0.5 * p.hole_depth),
+                               peg_chamfer_angle=u(self.peg_chamfer_angle))  # fmt: skip
         raise ParamError(f"seed {seed}: no placement of its carrier fits the plate in 100 draws")
 
 
