@@ -49,8 +49,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument(
         "--peg-chamfer",
         metavar="MM[,MM]",
-        help="chamfer the pegs' tips (peg-in-hole): this long along the axis, or drawn from "
-        "LOW,HIGH, in mm; the hole and its clearance stay the unchamfered peg's",
+        help="chamfer the pegs' tips (peg-in-hole, multi-peg): this long along the axis, or "
+        "drawn from LOW,HIGH, in mm; the hole and its clearance stay the unchamfered peg's",
     )
     s.add_argument(
         "--peg-chamfer-deg",
