@@ -362,6 +362,7 @@ FAMILIES: tuple[tuple[str, str], ...] = (
     ("direct expert", "scripted-direct"),
     ("`sac-teacher-free`, zero-shot", "sac-teacher-free"),
     ("`sac-direct-bc`, zero-shot", "sac-direct-bc"),
+    ("`sac-fast-bc`, zero-shot", "sac-fast-bc"),
     ("`dreamer-direct-bc`, zero-shot", "dreamer-direct-bc"),
 )
 """The families page: (agent, its name in docs/results/families/<name>_<split>.json)."""

@@ -164,3 +164,45 @@ def test_a_pass_through_is_a_peg_inside_the_module() -> None:
         "through the floor": (True, False),
         "out and over the edge": (False, True),
     }, got
+
+
+def _one_step(tmp_path, name: str, seed: int):
+    """A family's module written to tmp_path, as the simulator takes its one step, and its
+    params."""
+    from assetgen.dataset.families import family
+    from sim.assets.assembly import AssemblyStages
+
+    fam = family(name)
+    record = fam.write(seed, fam.sampler(), tmp_path, ("mjcf",), None, 0.0)
+    return AssemblyStages(tmp_path / f"{seed:06d}").stage(0), record["params"]
+
+
+def test_hole_geometry_of_a_carrier_is_its_reference_pegs(tmp_path) -> None:
+    """On a multi-peg carrier the benchmark aims at the reference peg's hole: its n sides,
+    each the clearance out from the peg."""
+    import numpy as np
+
+    asset, params = _one_step(tmp_path, "multi-peg", 1)
+    _, _, n, r, _ = params["pegs"][0]
+    geo = HoleGeometry.of(asset, 64)
+    assert len(geo.normals) == n
+    assert np.allclose(geo.offsets, r * np.cos(np.pi / n) + asset.clearance, atol=1e-6)
+    # inside the reference hole, beyond it at the next peg's place
+    x, y = params["pegs"][1][:2]
+    beyond, _ = geo.outside(geo.pos + np.array([[0.0, 0.0, 0.0], [x, y, 0.0]]) @ geo.rot.T)
+    assert beyond[0] < 0 < beyond[1]
+
+
+def test_hole_geometry_of_a_non_convex_peg_is_its_sections_hull(tmp_path) -> None:
+    import numpy as np
+    from scipy.spatial import ConvexHull
+
+    asset, _ = _one_step(tmp_path, "profile", 0)
+    geo = HoleGeometry.of(asset, 64)
+    corners = asset.peg.vertices[np.abs(asset.peg.vertices[:, 2]) < 1e-9, :2]
+    hull = corners[ConvexHull(corners).vertices]
+    assert len(geo.normals) == len(hull)
+    # every hull corner lies the clearance inside the outline's planes, on at least two
+    gap = geo.offsets[None, :] - hull @ geo.normals[:, :2].T
+    assert gap.min() > asset.clearance - 1e-6
+    assert (np.isclose(gap, asset.clearance, atol=1e-6).sum(axis=1) >= 2).all()

@@ -131,6 +131,65 @@ def _cross_section(peg: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return planes[:, :3], planes[:, 3], bottom
 
 
+def _outline(asset: ModuleAsset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """_cross_section's (normals, offsets, bottom corners) of the peg the hole takes. A peg of
+    convex pieces (an assembly family's part) is read off the pieces whose bottom faces lie
+    on the tip, z = 0: those that touch form one peg (a carrier's pegs stand apart), the one
+    nearest the peg frame's origin is the hole's, and its outline is the convex hull of
+    their bottom faces (a non-convex section's hole is judged by its hull)."""
+    if not asset.peg_pieces:
+        return _cross_section(asset.peg)
+    from scipy.spatial import ConvexHull
+
+    tips = [p.vertices[p.vertices[:, 2] < 1e-9, :2] for p in asset.peg_pieces]
+    tips = [t for t in tips if len(t) >= 3]
+    hulls = [t[ConvexHull(t).vertices] for t in tips]  # each counter-clockwise
+    n = len(hulls)
+    group = list(range(n))
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            i = group[i]
+        return i
+
+    for i in range(n):
+        for j in range(i):
+            if _touch(hulls[i], hulls[j]):
+                group[root(i)] = root(j)
+    members: dict[int, list[int]] = {}
+    for i in range(n):
+        members.setdefault(root(i), []).append(i)
+    near = min(members.values(), key=lambda g: min(_distance_out(hulls[i]) for i in g))
+    points = np.vstack([hulls[i] for i in near])
+    corners = points[ConvexHull(points).vertices]  # counter-clockwise
+    edge = np.roll(corners, -1, axis=0) - corners
+    normals = np.column_stack([edge[:, 1], -edge[:, 0], np.zeros(len(edge))])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    offsets = np.einsum("ij,ij->i", normals[:, :2], corners)
+    return normals, offsets, np.column_stack([corners, np.zeros(len(corners))])
+
+
+def _distance_out(polygon: np.ndarray) -> float:
+    """How far the origin lies outside a counter-clockwise convex polygon (<= 0: inside)."""
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    normal = np.column_stack([edge[:, 1], -edge[:, 0]])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return float((-np.einsum("ij,ij->i", normal, polygon)).max())
+
+
+def _touch(a: np.ndarray, b: np.ndarray, tol: float = 1e-6) -> bool:
+    """Whether two counter-clockwise convex polygons overlap or touch: no edge of either
+    separates them by more than `tol`."""
+    for p, q in ((a, b), (b, a)):
+        edge = np.roll(p, -1, axis=0) - p
+        normal = np.column_stack([edge[:, 1], -edge[:, 0]])
+        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+        gap = (q @ normal.T - np.einsum("ij,ij->i", normal, p)).min(axis=0)
+        if (gap > tol).any():
+            return False
+    return True
+
+
 def _thin(angles: np.ndarray, most: int) -> np.ndarray:
     """At most `most` of the sorted angles, evenly spread."""
     a = np.sort(np.mod(angles, 2 * np.pi))
@@ -158,7 +217,7 @@ class HoleGeometry:
     @classmethod
     def of(cls, asset: ModuleAsset, most: int) -> HoleGeometry:
         c = asset.clearance
-        normals, offsets, bottom = _cross_section(asset.peg)
+        normals, offsets, bottom = _outline(asset)
         # the design pose is the bottom frame moved up the axis by c; the hole is every
         # side plane of the peg there, moved out by c
         hole_d = offsets + c + normals[:, 2] * c

@@ -37,10 +37,16 @@ def main(args) -> int:
     from assetgen.core.overrides import parse_overrides
     from assetgen.dataset.reader import Dataset
     from assetgen.dataset.spec import resolve
-    from sim.assets.loading import load_dataset
+    from sim.assets.task_modules import load_modules
 
     root, _ = resolve(args.dataset)
-    config = Dataset(root).spec.config
+    ds_spec = Dataset(root).spec
+    config = ds_spec.config
+    if ds_spec.assembly and (args.source == "mjcf" or getattr(args, "robot", None)):
+        raise ValueError(
+            f"{args.dataset}: a {ds_spec.family} dataset runs in the simulator's models of its "
+            "one step, floating: drop --source mjcf and --robot"
+        )
     if getattr(config, "hole_chamfered", False):
         raise ValueError(
             f"{args.dataset}: its holes' entrances are chamfered, and the benchmark's pushes "
@@ -80,7 +86,7 @@ def main(args) -> int:
         if not push_time > 2 * cfg.window:
             raise ValueError(f"--push-time {push_time}: give more than {2 * cfg.window} s")
         cfg = replace(cfg, push_time=push_time)
-    assets = load_dataset(root, ids)
+    assets = load_modules(root, ids)  # Table I's modules, or a one-step family's step
     refused: dict[str, str] = {}
     if robot is not None:
         if args.source == "mjcf" or version is not None or args.set:
