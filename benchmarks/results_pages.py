@@ -396,7 +396,42 @@ def families_table() -> str:
                 f"| {100 * stage['failure_rate']:.2f} / {100 * stage['truncation_rate']:.2f} % "
                 f"| {d['seconds']:.0f} s |"
             )
+    contacts = [RESULTS / "families" / f"stress_{split}.json" for split in FAMILY_SPLITS]
+    contacts = [c for c in contacts if c.exists()]
+    if contacts:
+        rows += ["", *_contact_rows(contacts)]
     return "\n".join(rows) + "\n"
+
+
+def _contact_rows(paths: list[Path]) -> list[str]:
+    """The contact stress benchmark on the families' test splits (`assetgen bench contacts
+    SPLIT --limit N --json stress_SPLIT.json`): one row a split, then the targets it misses."""
+    import json
+
+    def mm(x: float, c: float) -> str:
+        return f"{x * 1e3:.3f} mm ({100 * x / c:.0f} %)"
+
+    out = [
+        "The contact stress benchmark (`assetgen bench contacts SPLIT --limit N`), floating peg:\n",
+        "| split | modules | pass-throughs | penetration worst / p99 | depth at rest, worst "
+        "| straight / twisting pushes not at rest | impacts not at rest | rebound e, worst "
+        "| targets missed |\n" + "|---" * 9 + "|",
+    ]
+    for path in paths:
+        d = json.loads(path.read_text())
+        (s,) = d["summaries"]
+        c = s["clearance"]
+        missed = ", ".join(k for k, ok in s["targets"].items() if not ok) or "none"
+        out.append(
+            f"| {Path(d['dataset']).name} | {s['modules']} | {s['passed_through']} "
+            f"| {mm(s['penetration_worst'], c)} / {mm(s['penetration_p99'], c)} "
+            f"| {mm(s['rest_depth_worst'], c)} "
+            f"| {s['straight_not_at_rest']} of {s['straight_pushes']} / "
+            f"{s['twisting_not_at_rest']} of {s['twisting_pushes']} "
+            f"| {s['impacts_not_at_rest']} of {s['impacts']} | {s['rebound_worst']:.3f} "
+            f"| {missed} |"
+        )
+    return out
 
 
 def superseded_variants(page: Page) -> frozenset[str]:
