@@ -434,6 +434,46 @@ def _contact_rows(paths: list[Path]) -> list[str]:
     return out
 
 
+CHAMFER_AGENTS: tuple[tuple[str, str], ...] = (
+    ("scripted expert", "scripted"),
+    ("direct expert", "scripted-direct"),
+    ("`sac-direct-bc`, zero-shot", "sac-direct-bc"),
+    ("`sac-teacher-free`, zero-shot", "sac-teacher-free"),
+)
+"""The chamfers page: (agent, its name in docs/results/chamfers/<name>_<split>.json)."""
+CHAMFER_SPLITS = (
+    ("test64_c025", "none"),
+    ("test64_c025_chamfered", "peg 1 mm, entrance 1.5 mm, 45°"),
+)
+"""The chamfers page's datasets: the first 64 test modules at 0.25 mm, without and with
+chamfers (`assetgen sample --n 64 --seed 2048 --clearance-mm 0.25 --formats mjcf
+[--peg-chamfer 1 --hole-chamfer 1.5] --out datasets/<split>`: the same seeds, so the same
+modules but for their chamfers; without them, the robot page's `test64_c025`)."""
+
+
+def chamfers_table() -> str:
+    """The agents on the same modules without and with chamfers (docs/results/chamfers/
+    table.md), from the evaluation files (`assetgen eval ... --attempts 4 --out ...`)."""
+    import json
+
+    rows = [
+        "| agent | chamfers | dataset | episodes | success (median time) | failed / truncated |"
+        "\n|---|---|---|---|---|---|"
+    ]
+    for agent, name in CHAMFER_AGENTS:
+        for split, chamfers in CHAMFER_SPLITS:
+            path = RESULTS / "chamfers" / f"{name}_{split}.json"
+            if not path.exists():
+                continue
+            d = json.loads(path.read_text())
+            rows.append(
+                f"| {agent} | {chamfers} | {split} ({d['dataset_hash'][:16]}) | {d['episodes']} "
+                f"| {100 * d['success_rate']:.2f} % ({d['median_time_to_success_s']:.2f} s) "
+                f"| {100 * d['failure_rate']:.2f} / {100 * d['truncation_rate']:.2f} % |"
+            )
+    return "\n".join(rows) + "\n"
+
+
 def superseded_variants(page: Page) -> frozenset[str]:
     """The variant names of the page's filed Table III lanes whose row a later candidate
     superseded (benchmarks/table3.py's Row.superseded_by): the full table keeps them, the
@@ -510,6 +550,7 @@ def main(argv: list[str] | None = None) -> int:
         ("referee", referee_table),
         ("assembly", assembly_table),
         ("families", families_table),
+        ("chamfers", chamfers_table),
         ("robot", robot_table),
         ("takeoff", takeoff_table),
     )

@@ -93,6 +93,26 @@ def test_families_page_is_generated_from_its_files() -> None:
         assert "summaries" in doc or doc["family"] != "peg-in-hole", f
 
 
+def test_chamfers_page_is_generated_from_its_files() -> None:
+    from benchmarks.results_pages import CHAMFER_AGENTS, CHAMFER_SPLITS, chamfers_table
+
+    table = RESULTS / "chamfers" / "table.md"
+    assert table.exists() and table.read_text() == chamfers_table(), (
+        f"{table} is stale: run python -m benchmarks.results_pages"
+    )
+    named = {f"{name}_{split}.json" for _, name in CHAMFER_AGENTS for split, _ in CHAMFER_SPLITS}
+    files = sorted((RESULTS / "chamfers").glob("*.json"))
+    assert files and {f.name for f in files} <= named
+    hashes = {}
+    for f in files:  # each file a row, on the current physics; one dataset per split
+        doc = json.loads(f.read_text())
+        assert f.stem.endswith("_" + Path(doc["dataset"]).name), f
+        assert doc.get("physics_version") == PHYSICS_VERSION, f
+        assert (
+            hashes.setdefault(Path(doc["dataset"]).name, doc["dataset_hash"]) == doc["dataset_hash"]
+        ), f
+
+
 def test_robot_page_is_generated_from_its_files() -> None:
     from benchmarks.results_pages import (
         ROBOT_AGENTS,
