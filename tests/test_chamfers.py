@@ -260,3 +260,41 @@ def test_multi_peg_tips_chamfered_over_the_unchamfered_holes(tmp_path):
                        inradius - p.chamfer_inset, atol=1e-7)  # fmt: skip
     with pytest.raises(ParamError, match="the smallest peg takes"):
         replace(plain, peg_chamfer=(0.001, 0.004)).validate()
+
+
+def test_multi_peg_entrance_chamfers_open_every_hole(tmp_path):
+    """Every hole's entrance opens as Table I's does; the pegs keep their bytes and the
+    clearance its measure; a range two neighbouring holes could not take is refused."""
+    from assetgen.dataset.families import family
+    from assetgen.families.multi_peg import MultiPegSampler, build_multi_peg
+
+    fam = family("multi-peg")
+    plain = MultiPegSampler()
+    chamfered = replace(plain, hole_chamfer=(0.001, 0.0015), hole_chamfer_angle=(0.7, 0.7))
+    p = chamfered.sample(2)
+    assert replace(p, hole_chamfer=0.0, hole_chamfer_angle=math.pi / 4) == plain.sample(2)
+    a = fam.write(2, chamfered, tmp_path / "a", ("mjcf",), None, 0.0)
+    fam.write(2, plain, tmp_path / "b", ("mjcf",), None, 0.0)
+    folder_a, folder_b = tmp_path / "a" / "000002", tmp_path / "b" / "000002"
+    assert (folder_a / "carrier.stl").read_bytes() == (folder_b / "carrier.stl").read_bytes()
+    assert a["checks"]["steps"][0]["clearance_m"] == pytest.approx(p.clearance, abs=1e-6)
+    # on the written plate's surface, each side of each hole has its widened edge, g L out
+    base = parse_stl_mm((folder_a / "base.stl").read_bytes())
+    top = base.vertices[np.abs(base.vertices[:, 2]) < 1e-9]
+    holes = build_multi_peg(replace(p, hole_chamfer=0.0)).base.holes
+    opening = math.tan(p.hole_chamfer_angle) * p.hole_chamfer
+    step = json.loads((folder_a / "module.json").read_text())["steps"][0]
+    axis = _axis(np.array(step["bottom"]["quat"]))
+    for hole in holes:
+        sides = hole[np.abs(hole[:, :3] @ axis) < 1e-9]  # the faces along the axis
+        s = top @ sides[:, :3].T - sides[:, 3]
+        near = (s < opening + 1e-6).all(axis=1)  # the surface's points on this hole's rim
+        assert (np.isclose(s[near], opening, atol=1e-7).sum(axis=0) >= 2).all()
+    with pytest.raises(ParamError, match="two holes 4 mm apart take at most"):
+        replace(plain, hole_chamfer=(0.001, 0.003)).validate()
+
+
+def _axis(quat: np.ndarray) -> np.ndarray:
+    """The z axis of a (w, x, y, z) rotation."""
+    w, x, y, z = quat
+    return np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])

@@ -62,8 +62,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument(
         "--hole-chamfer",
         metavar="MM[,MM]",
-        help="chamfer the holes' entrances (peg-in-hole): this deep below the surface, or drawn "
-        "from LOW,HIGH, in mm; below it the hole keeps the exact clearance",
+        help="chamfer the holes' entrances (peg-in-hole, multi-peg): this deep below the "
+        "surface, or drawn from LOW,HIGH, in mm; below it the hole keeps the exact clearance",
     )
     s.add_argument(
         "--hole-chamfer-deg",

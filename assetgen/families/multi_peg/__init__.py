@@ -26,6 +26,7 @@ from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.families.profile import (
     PLATE_SIZE,
+    PLATE_THICKNESS,
     REACH,
     frames,
     plate,
@@ -89,6 +90,12 @@ class MultiPegParams:
     peg_chamfer * tan(peg_chamfer_angle). Each hole is its unchamfered peg's."""
     peg_chamfer_angle: float = math.pi / 4
     """Angle of the chamfer's faces from the side faces, rad (5 - 60 deg)."""
+    hole_chamfer: float = 0.0
+    """Depth of the chamfer around every hole's entrance below the surface, m (0: none; at
+    most the plate's 5 mm). Above it each side face of a hole opens by tan(hole_chamfer_angle)
+    per metre of height, as Table I's entrance chamfer; below it the holes are exact."""
+    hole_chamfer_angle: float = math.pi / 4
+    """Angle of the entrance chamfer's faces from the holes' side faces, rad (5 - 60 deg)."""
 
     @property
     def hole_depth(self) -> float:
@@ -127,6 +134,8 @@ class MultiPegParams:
                 )
         if self.peg_chamfer:
             self._check_chamfer()
+        if self.hole_chamfer:
+            self._check_hole_chamfer()
         for i in range(len(self.pegs)):
             for j in range(i):
                 (xi, yi, _, ri, _), (xj, yj, _, rj, _) = self.pegs[i], self.pegs[j]
@@ -159,11 +168,34 @@ class MultiPegParams:
                     f"at most {limit * 1e3:.3f} mm: shorten the chamfer or flatten its angle"
                 )
 
+    def _check_hole_chamfer(self) -> None:
+        """ParamError where the entrance chamfer leaves the plate's slab or leaves less than
+        CHAMFER_FILL of the 4 mm of plate between two holes."""
+        if not (0 <= self.hole_chamfer <= PLATE_THICKNESS):
+            raise ParamError(
+                f"hole_chamfer = {self.hole_chamfer * 1e3:g} mm; give 0 to the plate's "
+                f"{PLATE_THICKNESS * 1e3:g} mm"
+            )
+        if not 5 * DEG <= self.hole_chamfer_angle <= 60 * DEG:
+            raise ParamError(
+                f"hole_chamfer_angle = {math.degrees(self.hole_chamfer_angle):g} deg; give 5-60"
+            )
+        width = self.hole_chamfer * math.tan(self.hole_chamfer_angle)
+        if width > CHAMFER_FILL * 0.002:
+            raise ParamError(
+                f"hole_chamfer = {self.hole_chamfer * 1e3:g} mm at "
+                f"{math.degrees(self.hole_chamfer_angle):g} deg widens each entrance by "
+                f"{width * 1e3:.3f} mm; two holes 4 mm apart take at most "
+                f"{CHAMFER_FILL * 2:g} mm each: make it shallower or steeper"
+            )
+
     def to_json(self) -> dict:
         d = asdict(self)
         d["pegs"] = [list(p) for p in self.pegs]
-        if not self.peg_chamfer:  # the records of modules without one keep their form
-            del d["peg_chamfer"], d["peg_chamfer_angle"]
+        for length, angle in (("peg_chamfer", "peg_chamfer_angle"),
+                              ("hole_chamfer", "hole_chamfer_angle")):  # fmt: skip
+            if not d[length]:  # the records of modules without one keep their form
+                del d[length], d[angle]
         return d
 
     @staticmethod
@@ -195,6 +227,18 @@ def chamfered_prism(poly: np.ndarray, length: float, chamfer: float, angle: floa
     sides = section_planes(poly)
     rows = np.column_stack([sides[:, :2], np.full(len(sides), -g), sides[:, 3] - chamfer * g])
     return np.vstack([solid, rows / math.sqrt(1.0 + g * g)])
+
+
+def entrance_bevel(hole: np.ndarray, axis: np.ndarray, depth: float, angle: float) -> np.ndarray:
+    """The entrance chamfer's part of a convex clearance hole (module frame): each side face
+    (the planes along the insertion axis) opened by g = tan(angle) per metre above z = -depth
+    (n . x - d <= g (z + depth)), capped as the hole and cut at that depth. With the hole it
+    makes the chamfered hole (every side opening at the same rate: Table I's rule)."""
+    g = math.tan(angle)
+    sides = hole[np.abs(hole[:, :3] @ axis) < 1e-9]
+    rows = np.column_stack([sides[:, :2], sides[:, 2] - g, sides[:, 3] + g * depth])
+    rows /= np.linalg.norm(rows[:, :3], axis=1, keepdims=True)
+    return np.vstack([rows, hole[-1:], [[0.0, 0.0, -1.0, depth]]])
 
 
 def _sections(p: MultiPegParams) -> list[np.ndarray]:
@@ -239,6 +283,8 @@ def build_multi_peg(p: MultiPegParams) -> Assembly:
     pegs = [prism(s, 0.0, p.peg_length + EMBED) for s in _sections(p)]
     # each hole is its unchamfered peg's: the clearance stays exact above the chamfer
     holes = [h for peg in pegs for h in clearance_hole([peg], p.clearance, design, axis, REACH)]
+    if p.hole_chamfer:
+        holes += [entrance_bevel(h, axis, p.hole_chamfer, p.hole_chamfer_angle) for h in holes]
     if p.peg_chamfer:
         pegs = [
             chamfered_prism(s, p.peg_length + EMBED, p.peg_chamfer, p.peg_chamfer_angle)
@@ -287,6 +333,11 @@ class MultiPegSampler(OneClearance):
     cut to half the hole's depth where that is less."""
     peg_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
     """Angle of the chamfer's faces from the side faces, rad."""
+    hole_chamfer: tuple[float, float] = (0.0, 0.0)
+    """Depth of the chamfer around the holes' entrances, m (default: none); drawn after the
+    pegs' chamfer, and only where the range is not (0, 0)."""
+    hole_chamfer_angle: tuple[float, float] = (45 * DEG, 45 * DEG)
+    """Angle of the entrance chamfer's faces from the holes' side faces, rad."""
 
     WHAT = "multi-peg sampler"
 
@@ -295,10 +346,19 @@ class MultiPegSampler(OneClearance):
         """Whether the pegs get a chamfer (a range other than (0, 0))."""
         return self.peg_chamfer != (0.0, 0.0)
 
+    @property
+    def hole_chamfered(self) -> bool:
+        """Whether the holes' entrances get a chamfer (a range other than (0, 0))."""
+        return self.hole_chamfer != (0.0, 0.0)
+
     def to_json(self) -> dict:
         out = super().to_json()
-        if not self.chamfered and out["peg_chamfer_angle"] == [45 * DEG, 45 * DEG]:
-            del out["peg_chamfer"], out["peg_chamfer_angle"]  # earlier specs keep their form
+        for on, length, angle in (
+            (self.chamfered, "peg_chamfer", "peg_chamfer_angle"),
+            (self.hole_chamfered, "hole_chamfer", "hole_chamfer_angle"),
+        ):
+            if not on and out[angle] == [45 * DEG, 45 * DEG]:
+                del out[length], out[angle]  # earlier specs keep their form
         return out
 
     def validate(self) -> MultiPegSampler:
@@ -310,6 +370,16 @@ class MultiPegSampler(OneClearance):
                 raise ParamError(f"{name} = {getattr(self, name)} must be in [0, 1]")
         if not 2 <= self.pegs[0] <= self.pegs[1] <= 4:
             raise ParamError(f"pegs = {self.pegs}: a carrier holds 2 to 4")
+        if self.hole_chamfered:  # the deepest, flattest entrance chamfer, as a module's rule
+            corner = replace(
+                self.sample(0),
+                hole_chamfer=self.hole_chamfer[1],
+                hole_chamfer_angle=self.hole_chamfer_angle[1],
+            )
+            try:
+                corner._check_hole_chamfer()
+            except ParamError as e:
+                raise ParamError(f"{self.WHAT}'s hole_chamfer range: {e}") from e
         if self.chamfered:  # the longest, flattest chamfer on the smallest peg there can be
             inset = self.peg_chamfer[1] * math.tan(self.peg_chamfer_angle[1])
             limit = CHAMFER_FILL * self.radius[0] * math.cos(math.pi / min(self.sides[0], ROUND))
@@ -374,11 +444,14 @@ class MultiPegSampler(OneClearance):
                 clearance=self.clearance,
             )
             if fits(p):
-                if not self.chamfered:
-                    return p
-                length = u(self.peg_chamfer)
-                return replace(p, peg_chamfer=min(length, 0.5 * p.hole_depth),
-                               peg_chamfer_angle=u(self.peg_chamfer_angle))  # fmt: skip
+                if self.chamfered:  # drawn last, and only when asked
+                    length = u(self.peg_chamfer)
+                    p = replace(p, peg_chamfer=min(length, 0.5 * p.hole_depth),
+                                peg_chamfer_angle=u(self.peg_chamfer_angle))  # fmt: skip
+                if self.hole_chamfered:
+                    p = replace(p, hole_chamfer=u(self.hole_chamfer),
+                                hole_chamfer_angle=u(self.hole_chamfer_angle))  # fmt: skip
+                return p
         raise ParamError(f"seed {seed}: no placement of its carrier fits the plate in 100 draws")
 
 
