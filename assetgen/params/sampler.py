@@ -17,8 +17,34 @@ from assetgen.params.module_params import ModuleParams, ParamError
 DEG = math.pi / 180
 
 
+class ChamferRanges:
+    """What a sampler config with chamfer ranges (fields peg_chamfer, peg_chamfer_angle,
+    hole_chamfer, hole_chamfer_angle: (low, high), m and rad) shares."""
+
+    @property
+    def chamfered(self) -> bool:
+        """Whether the pegs get a chamfer (a range other than (0, 0))."""
+        return self.peg_chamfer != (0.0, 0.0)  # type: ignore[attr-defined]
+
+    @property
+    def hole_chamfered(self) -> bool:
+        """Whether the holes' entrances get a chamfer (a range other than (0, 0))."""
+        return self.hole_chamfer != (0.0, 0.0)  # type: ignore[attr-defined]
+
+    def without_unused_chamfers(self, out: dict) -> dict:
+        """The config's JSON `out` without the chamfers it does not draw (at their default
+        angle), so configs from before chamfers keep their form."""
+        for on, length, angle in (
+            (self.chamfered, "peg_chamfer", "peg_chamfer_angle"),
+            (self.hole_chamfered, "hole_chamfer", "hole_chamfer_angle"),
+        ):
+            if not on and out[angle] == [45 * DEG, 45 * DEG]:
+                del out[length], out[angle]
+        return out
+
+
 @dataclass(frozen=True)
-class SamplerConfig:
+class SamplerConfig(ChamferRanges):
     """Uniform ranges of every sampled parameter (SI units). Defaults: paper Table I."""
 
     polygon_probability: float = 0.75
@@ -62,16 +88,6 @@ class SamplerConfig:
     def finest_clearance(self) -> float:
         """The finest clearance of a module, m (its only one): it sets the physics' timestep."""
         return self.clearance
-
-    @property
-    def chamfered(self) -> bool:
-        """Whether the pegs get a chamfer (a range other than (0, 0))."""
-        return self.peg_chamfer != (0.0, 0.0)
-
-    @property
-    def hole_chamfered(self) -> bool:
-        """Whether the holes' entrances get a chamfer (a range other than (0, 0))."""
-        return self.hole_chamfer != (0.0, 0.0)
 
     def with_clearance(self, clearance: float) -> SamplerConfig:
         """This config with the module's clearance set, m (`sample --clearance-mm`)."""
@@ -126,14 +142,7 @@ class SamplerConfig:
         return sample_params(self, seed, draw)
 
     def to_json(self) -> dict:
-        out = config_to_json(self)
-        for on, length, angle in (
-            (self.chamfered, "peg_chamfer", "peg_chamfer_angle"),
-            (self.hole_chamfered, "hole_chamfer", "hole_chamfer_angle"),
-        ):
-            if not on and out[angle] == [45 * DEG, 45 * DEG]:
-                del out[length], out[angle]  # Table I specs keep their form
-        return out
+        return self.without_unused_chamfers(config_to_json(self))
 
     @staticmethod
     def from_json(d: dict) -> SamplerConfig:

@@ -38,7 +38,7 @@ from assetgen.families.profile import (
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.geometry.polytope import polytope_vertices
 from assetgen.params.module_params import ParamError
-from assetgen.params.sampler import OneClearance, check_ranges
+from assetgen.params.sampler import ChamferRanges, OneClearance, check_ranges
 
 DEG = math.pi / 180
 CARRIER = 0.008
@@ -299,7 +299,7 @@ def build_multi_peg(p: MultiPegParams) -> Assembly:
 
 
 @dataclass(frozen=True)
-class MultiPegSampler(OneClearance):
+class MultiPegSampler(OneClearance, ChamferRanges):
     """Uniform ranges of the sampled parameters (SI units, angles in rad)."""
 
     pegs: tuple[int, int] = (2, 4)
@@ -341,25 +341,8 @@ class MultiPegSampler(OneClearance):
 
     WHAT = "multi-peg sampler"
 
-    @property
-    def chamfered(self) -> bool:
-        """Whether the pegs get a chamfer (a range other than (0, 0))."""
-        return self.peg_chamfer != (0.0, 0.0)
-
-    @property
-    def hole_chamfered(self) -> bool:
-        """Whether the holes' entrances get a chamfer (a range other than (0, 0))."""
-        return self.hole_chamfer != (0.0, 0.0)
-
     def to_json(self) -> dict:
-        out = super().to_json()
-        for on, length, angle in (
-            (self.chamfered, "peg_chamfer", "peg_chamfer_angle"),
-            (self.hole_chamfered, "hole_chamfer", "hole_chamfer_angle"),
-        ):
-            if not on and out[angle] == [45 * DEG, 45 * DEG]:
-                del out[length], out[angle]  # earlier specs keep their form
-        return out
+        return self.without_unused_chamfers(super().to_json())
 
     def validate(self) -> MultiPegSampler:
         """Ranges of two finite numbers low <= high, probabilities in [0, 1], and the first
