@@ -162,29 +162,30 @@ def _outline(asset: ModuleAsset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     near = min(members.values(), key=lambda g: min(_distance_out(hulls[i]) for i in g))
     points = np.vstack([hulls[i] for i in near])
     corners = points[ConvexHull(points).vertices]  # counter-clockwise
-    edge = np.roll(corners, -1, axis=0) - corners
-    normals = np.column_stack([edge[:, 1], -edge[:, 0], np.zeros(len(edge))])
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    offsets = np.einsum("ij,ij->i", normals[:, :2], corners)
+    normal, offsets = _edge_lines(corners)
+    normals = np.column_stack([normal, np.zeros(len(normal))])
     return normals, offsets, np.column_stack([corners, np.zeros(len(corners))])
+
+
+def _edge_lines(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A counter-clockwise convex polygon's edges as lines n . x <= d (unit outward n)."""
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    normal = np.column_stack([edge[:, 1], -edge[:, 0]])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return normal, np.einsum("ij,ij->i", normal, polygon)
 
 
 def _distance_out(polygon: np.ndarray) -> float:
     """How far the origin lies outside a counter-clockwise convex polygon (<= 0: inside)."""
-    edge = np.roll(polygon, -1, axis=0) - polygon
-    normal = np.column_stack([edge[:, 1], -edge[:, 0]])
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    return float((-np.einsum("ij,ij->i", normal, polygon)).max())
+    return float((-_edge_lines(polygon)[1]).max())
 
 
 def _touch(a: np.ndarray, b: np.ndarray, tol: float = 1e-6) -> bool:
     """Whether two counter-clockwise convex polygons overlap or touch: no edge of either
     separates them by more than `tol`."""
     for p, q in ((a, b), (b, a)):
-        edge = np.roll(p, -1, axis=0) - p
-        normal = np.column_stack([edge[:, 1], -edge[:, 0]])
-        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-        gap = (q @ normal.T - np.einsum("ij,ij->i", normal, p)).min(axis=0)
+        normal, d = _edge_lines(p)
+        gap = (q @ normal.T - d).min(axis=0)
         if (gap > tol).any():
             return False
     return True
