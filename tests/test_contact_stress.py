@@ -10,7 +10,7 @@ import pytest
 
 from assetgen.core.mujoco_config import PhysicsConfig, physics_for, physics_from_record
 from sim.bench.stress.cases import HoleGeometry, StressConfig
-from sim.bench.stress.figures import summarize, targets
+from sim.bench.stress.figures import format_summary, summarize, targets
 from sim.bench.stress.mujoco import stress
 from tests.test_sim_common import modules, sim_dataset
 
@@ -61,6 +61,20 @@ def test_sliding_friction_is_the_configured_coefficient(project) -> None:
 def test_no_rebound_with_the_actuators_off(project) -> None:
     e = [r["restitution"] for r in project if r["kind"] == "rebound"]
     assert len(e) >= 3 and max(e) <= 0.1, e
+
+
+def test_one_case_family_gets_its_own_figures_and_targets(project) -> None:
+    """`--cases impact` alone: the impacts' penetration rows and targets, none of the pushes'
+    or of a family not run."""
+    impacts = [r for r in project if r["kind"] == "impact"]
+    s = summarize(impacts, modules()[0].clearance)
+    rows = dict(format_summary(s))
+    assert "transient penetration, worst" in rows and "  impacts: worst / p99" in rows
+    assert "straight pushes not at rest" not in rows
+    assert "rebound e (actuators off), worst" not in rows
+    names = set(targets(s))
+    assert "no pass-through" in names and "every straight push at rest" not in names
+    assert "friction within 5 %" not in names
 
 
 def test_the_benchmark_sees_soft_contacts() -> None:
