@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from assetgen.core.portable import symmetric_eigen
 from assetgen.core.rotations import matrix_to_quat
 
 
@@ -58,10 +59,19 @@ class MassProperties:
             )
         return cls(float(mass), c, i)
 
-    def principal(self) -> tuple[np.ndarray, np.ndarray]:
+    def principal(self, portable: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Principal moments (3,) kg m^2 and axes as a quaternion (4,) (w, x, y, z): the
-        rotation R with inertia = R diag(moments) R^T (how UsdPhysics reads principalAxes)."""
-        moments, axes = np.linalg.eigh(self.inertia)
-        if np.linalg.det(axes) < 0:  # eigh may return a reflection; a rotation is needed
+        rotation R with inertia = R diag(moments) R^T (how UsdPhysics reads principalAxes).
+
+        portable: by assetgen.core.portable.symmetric_eigen, the same bits on every CPU,
+        also for a symmetric section whose in-plane moments are equal (the assembly
+        families). False: LAPACK's eigh, which Table I's pinned files were written with;
+        on its pegs it gives the same bits under every CPU emulation of the determinism
+        test (10,000 seeds checked)."""
+        if portable:
+            moments, axes = symmetric_eigen(self.inertia)
+        else:
+            moments, axes = np.linalg.eigh(self.inertia)
+        if np.linalg.det(axes) < 0:  # a reflection; a rotation is needed
             axes[:, 2] = -axes[:, 2]
         return moments, matrix_to_quat(axes)

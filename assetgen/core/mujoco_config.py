@@ -22,6 +22,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from assetgen.core.portable import dot as portable_dot
+from assetgen.core.portable import symmetric_eigen
 from assetgen.core.xml_text import xml_number, xml_vector
 
 INTEGRATORS = ("discrete", "implicitfast", "implicit", "Euler")
@@ -283,19 +285,24 @@ def velocity_gains(
     physics: PhysicsConfig,
     max_lin_vel: float = 0.25,
     max_ang_vel: float = math.pi / 2,
+    portable: bool = False,
 ) -> tuple[float, float]:
     """(kv_lin, kv_rot) of the six velocity actuators on the peg's bottom-face centre.
 
     Linear: mass / tau; angular: the largest principal inertia about the bottom-face centre
     (`com` m and `inertia` kg m^2 about the COM, both in the peg frame) / tau; each capped so
     a reversal from -max to +max velocity asks for at most the force/torque limit (2.2:
-    margin)."""
+    margin). portable: the moments by assetgen.core.portable (the same bits on every CPU);
+    False: numpy's BLAS and LAPACK, as Table I's pinned files (see MassProperties.principal).
+    """
     c = np.asarray(com, dtype=float)
     # parallel-axis theorem: I_site = I_com + m (|c|^2 I - c c^T)
-    i_site = np.asarray(inertia, dtype=float) + mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    cc = float(portable_dot(c, c)) if portable else np.dot(c, c)
+    i_site = np.asarray(inertia, dtype=float) + mass * (cc * np.eye(3) - np.outer(c, c))
+    biggest = symmetric_eigen(i_site)[0][-1] if portable else np.linalg.eigvalsh(i_site).max()
     kv_lin = min(mass / physics.tracking_time_constant, physics.force_limit / (2.2 * max_lin_vel))
     kv_rot = min(
-        float(np.linalg.eigvalsh(i_site).max() / physics.tracking_time_constant),
+        float(biggest / physics.tracking_time_constant),
         physics.torque_limit / (2.2 * max_ang_vel),
     )
     return float(kv_lin), float(kv_rot)

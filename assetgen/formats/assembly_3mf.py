@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from assetgen.core.mesh import Mesh
+from assetgen.core.portable import matmul
 from assetgen.formats.threemf import object_xml, package
 
 GAP_MM = 10.0
@@ -20,7 +21,7 @@ GAP_MM = 10.0
 def _placement(mesh: Mesh, turn: np.ndarray, x_mm: float) -> tuple[np.ndarray, float]:
     """The 3MF row-vector transform (4, 3) that turns the part by `turn` (3, 3), rests it
     on the bed and puts its left edge at x_mm; and the part's width along x, mm."""
-    v = (mesh.vertices * 1000.0) @ turn.T
+    v = matmul(mesh.vertices * 1000.0, turn.T)
     lo, hi = v.min(axis=0), v.max(axis=0)
     cy = (lo[1] + hi[1]) / 2
     m = np.vstack([turn.T, [x_mm - lo[0], -cy, -lo[2]]])

@@ -123,7 +123,7 @@ def assembly_mjcf(
             f'      <site name="{part.name}_frame" pos="0 0 0"/>',
             "    </body>",
         ]
-        kv_lin, kv_rot = velocity_gains(float(m), com, inertia, contact)
+        kv_lin, kv_rot = velocity_gains(float(m), com, inertia, contact, portable=True)
         actuators += actuator_xml(
             f"{part.name}_frame", ORIGIN_SITE, kv_lin, kv_rot, prefix=f"{part.name}_",
             block=False,

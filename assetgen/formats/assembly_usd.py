@@ -98,7 +98,8 @@ def assembly_usda(
         if part.name in mass:
             UsdPhysics.RigidBodyAPI.Apply(xf.GetPrim())
             kg, com, inertia = mass[part.name]
-            moments, axes = MassProperties.checked(kg, com, inertia, part.name).principal()
+            props = MassProperties.checked(kg, com, inertia, part.name)
+            moments, axes = props.principal(portable=True)
             api = UsdPhysics.MassAPI.Apply(xf.GetPrim())
             api.CreateMassAttr(float(kg))
             api.CreateCenterOfMassAttr(Gf.Vec3f(*map(float, com)))

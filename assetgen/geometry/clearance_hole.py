@@ -17,6 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from assetgen.core.portable import dot, matmul, norm
 from assetgen.geometry.polytope import transform_planes
 
 FACING = 1e-9
@@ -38,13 +39,13 @@ def clearance_hole(
     if not clearance > 0:
         raise ValueError(f"clearance = {clearance!r} m; expected a gap > 0")
     axis = np.asarray(axis, dtype=float)
-    axis = axis / np.linalg.norm(axis)
+    axis = axis / norm(axis)
     origin = pose[:3, 3]
     holes = []
     for s in solids:
         planes = transform_planes(np.asarray(s, dtype=float), pose)
         planes[:, 3] += clearance
-        keep = planes[:, :3] @ axis <= FACING
-        cap = np.array([[*axis, float(axis @ origin) + reach]])
+        keep = matmul(planes[:, :3], axis) <= FACING
+        cap = np.array([[*axis, float(dot(axis, origin)) + reach]])
         holes.append(np.vstack([planes[keep], cap]))
     return holes

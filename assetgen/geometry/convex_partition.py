@@ -15,6 +15,8 @@ from __future__ import annotations
 import manifold3d as mf
 import numpy as np
 
+from assetgen.core.portable import norm
+
 CONVEX = 1e-12
 """A corner is convex when the cross product of its unit edges exceeds this (strictly
 convex: a straight corner would leave a redundant plane)."""
@@ -30,7 +32,7 @@ def _convex_at(poly: np.ndarray, ring: list[int], k: int) -> bool:
     a, b = poly[ring[k - 1]], poly[ring[(k + 1) % len(ring)]]
     u, v = o - a, b - o
     cross = u[0] * v[1] - u[1] * v[0]
-    return cross / (np.linalg.norm(u) * np.linalg.norm(v)) > CONVEX
+    return cross / (float(norm(u)) * float(norm(v))) > CONVEX
 
 
 def _merged(p: list[int], q: list[int], a: int, b: int) -> list[int]:

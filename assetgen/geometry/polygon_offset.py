@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from assetgen.core.portable import dot
 from assetgen.params.module_params import ParamError
 
 PARALLEL = 1e-12
@@ -33,7 +34,8 @@ class OffsetError(ParamError):
 def signed_area(poly: np.ndarray) -> float:
     """The signed area (m^2) of a polygon (n, 2), positive when counter-clockwise."""
     x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    # numpy's pairwise sum, not BLAS's dot: the same bits on every CPU
+    return 0.5 * float((x * np.roll(y, -1)).sum() - (np.roll(x, -1) * y).sum())
 
 
 def centroid(poly: np.ndarray) -> np.ndarray:
@@ -50,7 +52,7 @@ def edge_lines(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     edge i, from vertex i to i + 1, lies on n_i . x = d_i, the polygon on n_i . x <= d_i."""
     e = np.roll(poly, -1, axis=0) - poly
     normals = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
-    return normals, np.einsum("ij,ij->i", normals, poly)
+    return normals, dot(normals, poly)
 
 
 def segments_cross(a0, a1, b0, b1) -> bool:
@@ -113,6 +115,15 @@ def check_simple(poly: np.ndarray, what: str = "polygon") -> np.ndarray:
     return poly
 
 
+def _solve2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with a[i] @ x[i] = b[i] for 2 x 2 systems a (n, 2, 2), b (n, 2), by Cramer's rule
+    (LAPACK's solve differs between CPUs in the last bit)."""
+    det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    x = (b[:, 0] * a[:, 1, 1] - a[:, 0, 1] * b[:, 1]) / det
+    y = (a[:, 0, 0] * b[:, 1] - b[:, 0] * a[:, 1, 0]) / det
+    return np.column_stack([x, y])
+
+
 def mitred_offset(poly: np.ndarray, distance: float) -> np.ndarray:
     """The polygon (n, 2) with every edge moved out by `distance` (m, > 0), vertex i where
     the moved lines of edges i - 1 and i meet. OffsetError if an edge would turn round or
@@ -124,10 +135,10 @@ def mitred_offset(poly: np.ndarray, distance: float) -> np.ndarray:
     d = d + distance
     prev = np.roll(np.arange(len(poly)), 1)
     a = np.stack([normals[prev], normals], axis=1)  # (n, 2, 2): rows n_{i-1}, n_i
-    out = np.linalg.solve(a, np.column_stack([d[prev], d])[..., None])[..., 0]
+    out = _solve2(a, np.column_stack([d[prev], d]))
     e_old = np.roll(poly, -1, axis=0) - poly
     e_new = np.roll(out, -1, axis=0) - out
-    along = np.einsum("ij,ij->i", e_old, e_new) / np.einsum("ij,ij->i", e_old, e_old)
+    along = dot(e_old, e_new) / dot(e_old, e_old)
     if (along <= 0).any():
         i = int(np.argmin(along))
         raise OffsetError(

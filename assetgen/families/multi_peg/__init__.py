@@ -22,6 +22,7 @@ from dataclasses import asdict, dataclass, fields, replace
 import numpy as np
 
 from assetgen.core.frames import Frame
+from assetgen.core.portable import matmul
 from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.families.profile import (
@@ -235,7 +236,7 @@ def entrance_bevel(hole: np.ndarray, axis: np.ndarray, depth: float, angle: floa
     (n . x - d <= g (z + depth)), capped as the hole and cut at that depth. With the hole it
     makes the chamfered hole (every side opening at the same rate: Table I's rule)."""
     g = math.tan(angle)
-    sides = hole[np.abs(hole[:, :3] @ axis) < 1e-9]
+    sides = hole[np.abs(matmul(hole[:, :3], axis)) < 1e-9]
     rows = np.column_stack([sides[:, :2], sides[:, 2] - g, sides[:, 3] + g * depth])
     rows /= np.linalg.norm(rows[:, :3], axis=1, keepdims=True)
     return np.vstack([rows, hole[-1:], [[0.0, 0.0, -1.0, depth]]])
@@ -268,7 +269,7 @@ def fits(p: MultiPegParams) -> bool:
     if sleeve_reach(p, _reach(p)) > PLATE_SIZE / 2:
         return False
     _, _, design = frames(p)
-    carrier = polytope_vertices(_carrier(p)) @ design[:3, :3].T + design[:3, 3]
+    carrier = matmul(polytope_vertices(_carrier(p)), design[:3, :3].T) + design[:3, 3]
     return bool(carrier[:, 2].min() >= CLEAR)
 
 

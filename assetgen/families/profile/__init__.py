@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass, fields, replace
 import numpy as np
 
 from assetgen.core.frames import Frame
+from assetgen.core.portable import matmul, norm
 from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.families.profile import sections
@@ -85,7 +86,7 @@ def rotation(tilt_x: float, tilt_y: float, yaw: float) -> np.ndarray:
     rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
     ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
     rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rx @ ry @ rz
+    return matmul(matmul(rx, ry), rz)
 
 
 @dataclass(frozen=True)
@@ -156,7 +157,7 @@ class ProfileParams:
                 f"section reaches {reach * 1e3:.1f} mm from the axis; at most "
                 f"{MAX_RADIUS * 1e3:g} mm"
             )
-        if np.linalg.norm(centroid(poly)) > 1e-9:
+        if float(norm(centroid(poly))) > 1e-9:
             raise ParamError("section: its area centroid must be the origin (the peg's axis)")
         return self
 

@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from assetgen.core.portable import dot
+
 ROUND_SIDES = 32
 """Vertices of a full circle (as Table I's "circle")."""
 
@@ -125,6 +127,6 @@ def interior_angles(poly: np.ndarray) -> np.ndarray:
     """Interior angle (rad, in (0, 2 pi)) at each vertex of a counter-clockwise polygon."""
     a = np.roll(poly, 1, axis=0) - poly
     b = np.roll(poly, -1, axis=0) - poly
-    turn = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.einsum("ij,ij->i", a, b))
+    turn = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], dot(a, b))
     # the angle from b round to a, counter-clockwise, is the interior one
     return np.mod(-turn, 2 * math.pi)

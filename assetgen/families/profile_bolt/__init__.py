@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, fields, replace
 import numpy as np
 
 from assetgen.core.frames import Frame
+from assetgen.core.portable import matmul, rigid_inverse
 from assetgen.families.interface import Family
 from assetgen.families.parts import Assembly, Part, Step
 from assetgen.geometry.clearance_hole import clearance_hole
@@ -232,7 +233,7 @@ def build_profile_bolt(p: ProfileBoltParams) -> Assembly:
         profile_solids, cp, profile_pose, np.array([0.0, 0.0, 1.0]), REACH
     )
     # the profile's cross hole, in the profile frame
-    in_profile = np.linalg.inv(profile_pose) @ bolt_pose
+    in_profile = matmul(rigid_inverse(profile_pose), bolt_pose)
     cross_hole = clearance_hole([shank], cb, in_profile, np.array([1.0, 0.0, 0.0]), REACH)
     plate = box(
         [-PLATE_SIZE / 2, -PLATE_SIZE / 2, -PLATE_THICKNESS], [PLATE_SIZE / 2, PLATE_SIZE / 2, 0.0]
