@@ -9,5 +9,5 @@ share (meshes, STL, frames, the MuJoCo configuration, atomic files, timing); `ph
 the MJCF physics checks of written modules; `bench` times the whole pipeline.
 """
 
-GENERATOR_VERSION = "0.7.0"
+GENERATOR_VERSION = "0.8.0"
 """Bumped whenever generated files or records change; CHANGELOG.md says what changed."""

@@ -31,6 +31,16 @@ from enumerating plane triples (assetgen.geometry.triple_vertices), redundant pl
 dropped between holes (a facet of a bounded polytope has at least three vertices), and
 assetgen.collision.cell_meshes turns the cells into meshes. Hand-written: no
 library decomposes exactly (CoACD approximates, and eats into a sub-millimetre gap).
+
+Before that, each face that bounds every hole from one side is given to one piece whole:
+when a plane p of some hole has every hole on its inner side (s_p <= 0 throughout the
+material), the material beyond it, {s_p >= 0}, is one cell that no hole meets, and the rest
+is the material with {s_p <= overlap}, carved by the holes without row p. A hole's floor
+shared by the convex pieces of a non-convex hole is then one face of one piece, not the
+coplanar faces of a dozen: a peg landing on a floor split into many pieces met many
+contacts at once, and MuJoCo's multi-point convex collision let it sink through for a step.
+The peeling goes on while such a plane is left (the plane in most holes first); for one
+convex hole it gives every face its own piece.
 """
 
 from __future__ import annotations
@@ -42,6 +52,7 @@ import numpy as np
 from assetgen.collision.cell_meshes import cell_meshes
 from assetgen.collision.exact import OVERLAP
 from assetgen.core.mesh import Mesh
+from assetgen.core.portable import matmul, norm
 from assetgen.geometry.triple_vertices import polytope_vertices_batch
 
 ON_PLANE = 1e-9
@@ -92,7 +103,7 @@ def farthest_cells(hole: np.ndarray, overlap: float = 0.0) -> list[np.ndarray]:
         rows = [np.array([*(-nj), -dj])]
         for i, (ni, di) in enumerate(zip(hole[:, :3], hole[:, 3], strict=True)):
             dn = ni - nj
-            size = float(np.linalg.norm(dn))
+            size = float(norm(dn))
             if i == j or size >= PARALLEL:
                 if i != j:
                     rows.append(np.array([*(dn / size), (di - dj) / size + overlap]))
@@ -113,7 +124,7 @@ def _solid(vertices: np.ndarray) -> bool:
 
 def _pruned(planes: np.ndarray, vertices: np.ndarray) -> np.ndarray:
     """The cell's facet planes: those with at least three of its vertices on them."""
-    on = np.abs(vertices @ planes[:, :3].T - planes[:, 3]) < ON_PLANE
+    on = np.abs(matmul(vertices, planes[:, :3].T) - planes[:, 3]) < ON_PLANE
     return planes[on.sum(axis=0) >= 3]
 
 
@@ -133,6 +144,7 @@ def carve_cells(
     (v,) = polytope_vertices_batch([material])
     if not _solid(v):
         raise ValueError("material: the half-spaces enclose no volume (or are unbounded)")
+    slabs, material, v, holes = _peel(material, v, holes, overlap)
     cells = [_pruned(material, v)]
     for hole in holes:
         meets = polytope_vertices_batch([np.vstack([c, hole]) for c in cells])
@@ -148,7 +160,49 @@ def carve_cells(
             for c, v in zip(candidates, polytope_vertices_batch(candidates), strict=True)
             if _solid(v)
         ]
-    return cells
+    return slabs + cells
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Which rows of `a` (k, 4) equal the row `b` within PARALLEL."""
+    return np.abs(a - b).max(axis=1) <= PARALLEL
+
+
+def _peel(
+    material: np.ndarray, v: np.ndarray, holes: list[np.ndarray], overlap: float
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Peel off the material beyond each hole plane that has every hole on its inner side
+    (see the module's docstring): (the peeled cells, the material left (rows, vertices),
+    the holes to carve from it, each without its peeled rows). Holes that do not meet the
+    material are left out (none meets it: nothing is peeled, the material stays whole)."""
+    full = list(holes)  # the criterion looks at the whole holes; the carving at what is left
+    carving = list(holes)
+    slabs: list[np.ndarray] = []
+    while True:
+        inside = polytope_vertices_batch([np.vstack([material, h]) for h in full])
+        live = [k for k, x in enumerate(inside) if _solid(x)]
+        if not live:
+            return slabs, material, v, []
+        points = np.vstack([inside[k] for k in live])
+        rows = np.vstack([carving[k] for k in live])
+        owner = np.repeat(np.arange(len(live)), [len(carving[k]) for k in live])
+        same = np.abs(rows[:, None] - rows[None]).max(axis=2) <= PARALLEL
+        # in how many holes each row is; only holes on its inner side, material beyond it
+        count = np.array([len(set(owner[m])) for m in same])
+        fits = (matmul(points, rows[:, :3].T) - rows[:, 3]).max(axis=0) <= ON_PLANE
+        beyond = (matmul(v, rows[:, :3].T) - rows[:, 3]).max(axis=0) > max(SOLID, overlap)
+        if not (fits & beyond).any():
+            return slabs, material, v, [carving[k] for k in live]
+        best = rows[int(np.argmax(np.where(fits & beyond, count, 0)))]
+        slab = np.vstack([material, -best])
+        (sv,) = polytope_vertices_batch([slab])
+        if _solid(sv):
+            slabs.append(_pruned(slab, sv))
+        material = np.vstack([material, best + np.array([0.0, 0.0, 0.0, overlap])])
+        (v,) = polytope_vertices_batch([material])
+        material = _pruned(material, v)
+        full = [full[k] for k in live]
+        carving = [carving[k][~_same(carving[k], best)] for k in live]
 
 
 def carve(
