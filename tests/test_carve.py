@@ -188,6 +188,27 @@ def test_a_cross_hole_through_a_profile() -> None:
     assert_union(carve_cells(profile, holes), carve(profile, holes), holes, solid)
 
 
+def faces_on(cells: list[np.ndarray], row: np.ndarray) -> int:
+    """How many cells have a facet on the plane of `row` (as a face of theirs: -row)."""
+    return sum(bool((np.abs(c + row).max(axis=1) < 1e-12).any()) for c in cells)
+
+
+def test_a_floor_shared_by_every_hole_is_one_face() -> None:
+    """A T's hole (two pieces that share their floor): the floor and each outer wall that
+    bounds both pieces from one side are a face of one cell, not of one cell per piece; the
+    decomposition stays exact (check_carving)."""
+    stem = box([-0.003, -0.015, -0.03], [0.003, 0.015, 0.0])
+    bar = box([-0.01, -0.004, -0.03], [0.01, 0.004, 0.0])
+    holes = [insertion_hole(s, C) for s in (stem, bar)]
+    floor = np.array([0.0, 0.0, -1.0, 0.03 + C])
+    assert all((np.abs(h - floor).max(axis=1) < 1e-12).any() for h in holes)
+    cells = carve_cells(box(MATERIAL_LO, MATERIAL_HI), holes, overlap=0.0)
+    assert faces_on(cells, floor) == 1
+    for wall in (np.array([1.0, 0, 0, 0.01 + C]), np.array([0, 1.0, 0, 0.015 + C])):
+        assert faces_on(cells, wall) == 1
+    check_carving([stem, bar])
+
+
 def test_a_hole_that_misses_the_material_leaves_it_whole() -> None:
     material = box([0, 0, 0], [0.01, 0.01, 0.01])
     far = box([0.02, 0.02, 0.02], [0.03, 0.03, 0.03])
