@@ -179,3 +179,20 @@ def test_pieces_sharing_a_corner_print_as_one_closed_body(seed) -> None:
     for part in (asm.base, *asm.parts):
         t = topology(parse_stl_mm(stl_bytes(part_mesh(part)), f"{part.name}.stl"))
         assert t["watertight"] and t["winding_consistent"] and t["bodies"] == 1, part.name
+
+
+@pytest.mark.parametrize("seed", [102069, 103669])
+def test_a_crossing_computed_twice_prints_closed(seed) -> None:
+    """Two of 10,000 splined plates: manifold3d computes one crossing of the hole's pieces on
+    its floor twice, two vertices at one point joined by a fin of no area. The float32 STL
+    made them one point and the fin's edge bounded four triangles; part_mesh welds them."""
+    from assetgen.checks.module_checks import topology
+    from assetgen.core.stl import parse_stl_mm, stl_bytes
+    from assetgen.families.part_mesh import part_mesh, weld
+
+    base = build_profile(ProfileSampler().sample(seed)).base
+    mesh = part_mesh(base)
+    assert len(np.unique(mesh.vertices, axis=0)) == len(mesh.vertices)
+    t = topology(parse_stl_mm(stl_bytes(mesh), "base.stl"))
+    assert t["watertight"] and t["winding_consistent"] and t["bodies"] == 1
+    assert weld(mesh) is mesh  # a mesh without repeated positions comes back as it is

@@ -63,4 +63,42 @@ def part_mesh(part: Part) -> Mesh:
         holes = _hulls([np.vstack([h, clip]) for h in part.holes], snapped=True)
         body = body - mf.Manifold.batch_boolean(holes, mf.OpType.Add)
     m = body.to_mesh64()
-    return Mesh(np.asarray(m.vert_properties)[:, :3].copy(), np.asarray(m.tri_verts, np.int64))
+    return weld(
+        Mesh(np.asarray(m.vert_properties)[:, :3].copy(), np.asarray(m.tri_verts, np.int64))
+    )
+
+
+def weld(mesh: Mesh) -> Mesh:
+    """The mesh with vertices at exactly one position made one, and the folds that leaves
+    removed: a triangle and its reverse (a fin of no area), and triangles with two equal
+    corners. Where the convex pieces of a non-convex hole cross on its floor, manifold3d may
+    compute one crossing twice, as two vertices at the same point joined by such a fin: the
+    surface is closed as indices, but an STL stores positions, and there the fin's edge
+    bounds four triangles. A mesh without repeated positions comes back unchanged.
+    Hand-written: trimesh's merge keeps one of two opposite faces, which leaves the fin."""
+    v, f = mesh.vertices, mesh.faces
+    _, first, inverse = np.unique(v, axis=0, return_index=True, return_inverse=True)
+    if len(first) == len(v):
+        return mesh
+    faces = first[inverse.reshape(-1)][f]  # each vertex -> the first at its position
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]  # fmt: skip
+    # a triangle and its reverse: the same corners, opposite cyclic order
+    turn = np.argmin(faces, axis=1)
+    rolled = np.stack([np.roll(t, -k) for t, k in zip(faces, turn, strict=True)])
+    canon = np.where((rolled[:, 1] < rolled[:, 2])[:, None], rolled, rolled[:, [0, 2, 1]])
+    forward = rolled[:, 1] < rolled[:, 2]
+    keep = np.ones(len(faces), bool)
+    seen: dict[tuple[int, int, int], list[int]] = {}
+    for i, key in enumerate(map(tuple, canon)):
+        seen.setdefault(key, []).append(i)
+    for group in seen.values():
+        ups = [i for i in group if forward[i]]
+        downs = [i for i in group if not forward[i]]
+        for a, b in zip(ups, downs, strict=False):  # each pair of opposites cancels
+            keep[a] = keep[b] = False
+    faces = faces[keep]
+    used = np.unique(faces)
+    index = np.full(len(v), -1)
+    index[used] = np.arange(len(used))
+    return Mesh(v[used], index[faces])
