@@ -13,7 +13,9 @@ class ParamError(ValueError):
     """A parameter outside the range the generator can build; the message says what to do."""
 
 
-def _check_range(name: str, value: float, lo: float, hi: float, unit: str, hint: str) -> None:
+def check_range(name: str, value: float, lo: float, hi: float, unit: str, hint: str) -> None:
+    """ParamError naming `name`, its value, the range [lo, hi] in `unit` and `hint` (what to
+    do) unless the value is finite and in the range."""
     if not math.isfinite(value):
         raise ParamError(f"{name} = {value} is not a finite number; {hint}")
     if not lo <= value <= hi:
@@ -123,38 +125,38 @@ class ModuleParams:
                 "(Table I uses 3-8 and 32)"
             )
         deg = math.pi / 180
-        _check_range("circumradius", self.circumradius, 0.002, 0.05, "m", hint)
-        _check_range("aspect_ratio", self.aspect_ratio, 0.1, 1.0, "", hint)
-        _check_range("squash_angle", self.squash_angle, -math.pi, math.pi, "rad", hint)
-        _check_range("peg_height", self.peg_height, 0.005, 0.3, "m", hint)
-        _check_range("taper", self.taper, 0.0, 0.5, "", hint)
+        check_range("circumradius", self.circumradius, 0.002, 0.05, "m", hint)
+        check_range("aspect_ratio", self.aspect_ratio, 0.1, 1.0, "", hint)
+        check_range("squash_angle", self.squash_angle, -math.pi, math.pi, "rad", hint)
+        check_range("peg_height", self.peg_height, 0.005, 0.3, "m", hint)
+        check_range("taper", self.taper, 0.0, 0.5, "", hint)
         if math.isfinite(self.hole_depth_fraction) and self.hole_depth_fraction >= 1.0:
             raise ParamError(
                 f"hole_depth_fraction = {self.hole_depth_fraction:g} makes the hole deeper than "
                 "the peg (>= 1); the peg must stick out to be grasped: use a value in (0.05, 0.95]"
             )
-        _check_range("hole_depth_fraction", self.hole_depth_fraction, 0.05, 0.95, "", hint)
-        _check_range("hole_x", self.hole_x, -0.06, 0.06, "m", hint)
-        _check_range("hole_y", self.hole_y, -0.06, 0.06, "m", hint)
-        _check_range("hole_tilt_x", self.hole_tilt_x, -30 * deg, 30 * deg, "rad", hint)
-        _check_range("hole_tilt_y", self.hole_tilt_y, -30 * deg, 30 * deg, "rad", hint)
-        _check_range("hole_yaw", self.hole_yaw, -math.pi, math.pi, "rad", hint)
+        check_range("hole_depth_fraction", self.hole_depth_fraction, 0.05, 0.95, "", hint)
+        check_range("hole_x", self.hole_x, -0.06, 0.06, "m", hint)
+        check_range("hole_y", self.hole_y, -0.06, 0.06, "m", hint)
+        check_range("hole_tilt_x", self.hole_tilt_x, -30 * deg, 30 * deg, "rad", hint)
+        check_range("hole_tilt_y", self.hole_tilt_y, -30 * deg, 30 * deg, "rad", hint)
+        check_range("hole_yaw", self.hole_yaw, -math.pi, math.pi, "rad", hint)
         if math.isfinite(self.clearance) and self.clearance <= 0:
             raise ParamError(
                 f"clearance = {self.clearance:g} m must be positive (the paper uses 0.001 m); "
                 "a peg with no gap cannot be inserted"
             )
-        _check_range("clearance", self.clearance, 1e-5, 0.005, "m", hint)
-        _check_range("plate_size", self.plate_size, 0.05, 0.5, "m", hint)
-        _check_range("plate_thickness", self.plate_thickness, 0.001, 0.05, "m", hint)
-        _check_range("sleeve_wall", self.sleeve_wall, 0.0005, 0.05, "m", hint)
-        _check_range("floor_thickness", self.floor_thickness, 0.0005, 0.05, "m", hint)
-        _check_range("peg_chamfer", self.peg_chamfer, 0.0, 0.5 * self.hole_depth, "m",
+        check_range("clearance", self.clearance, 1e-5, 0.005, "m", hint)
+        check_range("plate_size", self.plate_size, 0.05, 0.5, "m", hint)
+        check_range("plate_thickness", self.plate_thickness, 0.001, 0.05, "m", hint)
+        check_range("sleeve_wall", self.sleeve_wall, 0.0005, 0.05, "m", hint)
+        check_range("floor_thickness", self.floor_thickness, 0.0005, 0.05, "m", hint)
+        check_range("peg_chamfer", self.peg_chamfer, 0.0, 0.5 * self.hole_depth, "m",
                      "the chamfer must end in the hole's lower half; shorten it")  # fmt: skip
-        _check_range("peg_chamfer_angle", self.peg_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
-        _check_range("hole_chamfer", self.hole_chamfer, 0.0, self.plate_thickness, "m",
+        check_range("peg_chamfer_angle", self.peg_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
+        check_range("hole_chamfer", self.hole_chamfer, 0.0, self.plate_thickness, "m",
                      "the entrance chamfer ends within the plate; make it shallower")  # fmt: skip
-        _check_range("hole_chamfer_angle", self.hole_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
+        check_range("hole_chamfer_angle", self.hole_chamfer_angle, 5 * deg, 60 * deg, "rad", hint)
         width = self.hole_chamfer * math.tan(self.hole_chamfer_angle)
         if width > CHAMFER_WALL_SHARE * self.sleeve_wall:
             raise ParamError(

@@ -38,7 +38,7 @@ from assetgen.families.profile import (
 )
 from assetgen.geometry.clearance_hole import clearance_hole
 from assetgen.geometry.polytope import polytope_vertices
-from assetgen.params.module_params import ParamError
+from assetgen.params.module_params import ParamError, check_range
 from assetgen.params.sampler import ChamferRanges, OneClearance, check_ranges
 
 DEG = math.pi / 180
@@ -151,15 +151,10 @@ class MultiPegParams:
     def _check_chamfer(self) -> None:
         """ParamError where the chamfer is out of its ranges or a peg's tip cannot take it
         (its edges would move in by more than CHAMFER_FILL of its inradius)."""
-        if not (0 <= self.peg_chamfer <= 0.5 * self.hole_depth):
-            raise ParamError(
-                f"peg_chamfer = {self.peg_chamfer * 1e3:g} mm; give 0 to half the hole's depth "
-                f"({0.5 * self.hole_depth * 1e3:.2f} mm)"
-            )
-        if not 5 * DEG <= self.peg_chamfer_angle <= 60 * DEG:
-            raise ParamError(
-                f"peg_chamfer_angle = {math.degrees(self.peg_chamfer_angle):g} deg; give 5-60 deg"
-            )
+        check_range("peg_chamfer", self.peg_chamfer, 0.0, 0.5 * self.hole_depth, "m",
+                    "the chamfer must end in the hole's lower half; shorten it")  # fmt: skip
+        check_range("peg_chamfer_angle", self.peg_chamfer_angle, 5 * DEG, 60 * DEG, "rad",
+                    "give 5-60 deg")  # fmt: skip
         for k, (_, _, n, r, _) in enumerate(self.pegs):
             limit = CHAMFER_FILL * r * math.cos(math.pi / n)  # a regular n-gon's inradius
             if self.chamfer_inset > limit:
@@ -172,15 +167,10 @@ class MultiPegParams:
     def _check_hole_chamfer(self) -> None:
         """ParamError where the entrance chamfer leaves the plate's slab or leaves less than
         CHAMFER_FILL of the 4 mm of plate between two holes."""
-        if not (0 <= self.hole_chamfer <= PLATE_THICKNESS):
-            raise ParamError(
-                f"hole_chamfer = {self.hole_chamfer * 1e3:g} mm; give 0 to the plate's "
-                f"{PLATE_THICKNESS * 1e3:g} mm"
-            )
-        if not 5 * DEG <= self.hole_chamfer_angle <= 60 * DEG:
-            raise ParamError(
-                f"hole_chamfer_angle = {math.degrees(self.hole_chamfer_angle):g} deg; give 5-60"
-            )
+        check_range("hole_chamfer", self.hole_chamfer, 0.0, PLATE_THICKNESS, "m",
+                    "the entrance chamfer ends within the plate; make it shallower")  # fmt: skip
+        check_range("hole_chamfer_angle", self.hole_chamfer_angle, 5 * DEG, 60 * DEG, "rad",
+                    "give 5-60 deg")  # fmt: skip
         width = self.hole_chamfer * math.tan(self.hole_chamfer_angle)
         if width > CHAMFER_FILL * 0.002:
             raise ParamError(
