@@ -195,11 +195,10 @@ def _peel(
             return slabs, material, v, [carving[k] for k in live]
         best = rows[int(np.argmax(np.where(fits & beyond, count, 0)))]
         slab = np.vstack([material, -best])
-        (sv,) = polytope_vertices_batch([slab])
+        material = np.vstack([material, best + np.array([0.0, 0.0, 0.0, overlap])])
+        sv, v = polytope_vertices_batch([slab, material])
         if _solid(sv):
             slabs.append(_pruned(slab, sv))
-        material = np.vstack([material, best + np.array([0.0, 0.0, 0.0, overlap])])
-        (v,) = polytope_vertices_batch([material])
         material = _pruned(material, v)
         full = [full[k] for k in live]
         carving = [carving[k][~_same(carving[k], best)] for k in live]
