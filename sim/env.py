@@ -31,7 +31,7 @@ and angular velocity of the peg's bottom-face centre in the module frame.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,13 +42,14 @@ from assetgen.core.recorded_path import recorded_path
 from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim.assets.loading import ModuleAsset, check_physics, dataset_root
 from sim.assets.task_modules import load_modules
+from sim.cameras.config import CameraConfig
 from sim.engines.base import EngineOptions
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.robots.registry import check_robot
 from sim.task import kernel as K
 from sim.task import rules as T
-from sim.task.config import TaskConfig, reading_noise
+from sim.task.config import READINGS, TaskConfig, reading_noise
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
 from sim.task.takeoff_gate import TakeoffGate
@@ -231,6 +232,13 @@ class PegInHoleVecEnv:
         self.obs_dim = T.OBS_DIM + len(self._reading_noise)
         for r in self.cfg.readings:  # an engine without them refuses here, not mid-run
             self.sim.readings(r)
+        self.camera = None
+        """The camera drawing the image after the readings (TaskConfig.camera), or None."""
+        if self.cfg.camera is not None:
+            from sim.cameras.render import CameraRenderer  # GL only where a camera is asked
+
+            self.camera = CameraRenderer(modules, self.cfg.camera, cache=max(64, 2 * n))
+            self.obs_dim += self.cfg.camera.size
         self._obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
@@ -336,12 +344,35 @@ class PegInHoleVecEnv:
         """The readings of envs idx (TaskConfig.readings) into out[rows, 18:] (rows: where
         out holds those envs), with their noise (drawn only when there are readings: without
         them, the draws are the paper's)."""
-        if not self.cfg.readings:
-            return
-        values = np.concatenate([self.sim.readings(r)[idx] for r in self.cfg.readings], axis=1)
-        if self.cfg.noise:
-            values = values + self._reading_noise * self.rng.standard_normal(values.shape)
-        out[rows, T.OBS_DIM :] = values
+        if self.cfg.readings:
+            values = np.concatenate([self.sim.readings(r)[idx] for r in self.cfg.readings], 1)
+            if self.cfg.noise:
+                values = values + self._reading_noise * self.rng.standard_normal(values.shape)
+            out[rows, T.OBS_DIM : T.OBS_DIM + len(self._reading_noise)] = values
+        if self.camera is not None:
+            from sim.cameras.noise import corrupt
+
+            pos, quat = self.sim.peg_pos[idx], self.sim.peg_quat[idx]
+            images = self.camera.render(self.env_module[idx], pos, quat)
+            if self.cfg.noise:
+                corrupt(images, self.camera.cfg, self.rng)
+            out[rows, T.OBS_DIM + len(self._reading_noise) :] = images.reshape(len(images), -1)
+
+    def observation_layout(self) -> list[tuple[str, slice, tuple[int, ...]]]:
+        """What each part of an observation holds: (name, its columns, its shape), in order:
+        "pose" (the 18-D relative pose, sim/task/rules.py), each reading by its name
+        (TaskConfig.readings), then "camera_<view>_<modality>" (channels, height, width)."""
+        parts = [("pose", (T.OBS_DIM,))]
+        parts += [(r, (sum(n for _, n in READINGS[r]),)) for r in self.cfg.readings]
+        if self.cfg.camera is not None:
+            c = self.cfg.camera
+            parts.append((f"camera_{c.view}_{c.modality}", c.shape))
+        out, start = [], 0
+        for name, shape in parts:
+            size = int(np.prod(shape))
+            out.append((name, slice(start, start + size), shape))
+            start += size
+        return out
 
     def _start_episodes(self, idx: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> None:
         """Bookkeeping of episodes starting at poses pos (k, 3), quat (k, 4) in envs idx."""
@@ -567,7 +598,8 @@ class PegInHoleVecEnv:
         done = terminated | truncated
         if unstable.any():
             self.unstable_count += int(unstable.sum())
-        if self.cfg.readings:  # an unstable env keeps its last observation, readings included
+        if self.cfg.readings or self.camera is not None:
+            # an unstable env keeps its last observation, readings and image included
             stable = np.flatnonzero(~unstable)
             self._add_readings(stable, obs, stable)
         info = {
@@ -695,6 +727,8 @@ class PegInHoleVecEnv:
 
     def close(self) -> None:
         self.sim.close()
+        if self.camera is not None:
+            self.camera.close()
 
 
 def train_config(
@@ -708,6 +742,7 @@ def train_config(
     readings: tuple[str, ...] = (),
     inside_starts: float | None = None,
     inside_starts_until: float | None = None,
+    camera: CameraConfig | None = None,
 ) -> tuple[Path, TaskConfig]:
     """The dataset's folder and the training task's config: the paper's task with its
     curriculum over `curriculum_steps` env steps (default: the paper's 50 M), or gated by
@@ -731,6 +766,8 @@ def train_config(
         config = replace(config, dist_axis_weight=float(axis_shaping)).validate()
     if readings:
         config = replace(config, readings=tuple(readings)).validate()
+    if camera is not None:
+        config = replace(config, camera=camera).validate()
     return root, config
 
 
@@ -749,6 +786,7 @@ def make_train_env(
     readings: tuple[str, ...] = (),
     inside_starts: float | None = None,
     inside_starts_until: float | None = None,
+    camera: CameraConfig | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env(dataset, num_envs, seed, curriculum_steps=N)` for training: the
     paper's task with its curriculum over `curriculum_steps` env steps (default: the
@@ -760,11 +798,12 @@ def make_train_env(
     for training on mujoco-warp the command line takes sim/engines/warp/env.py's env, the
     task on the device). near_starts, inside_starts, inside_starts_until: TaskConfig's;
     axis_shaping: TaskConfig.dist_axis_weight; robot: a registered robot holds the peg (None:
-    it floats); readings: what it adds to the observation (TaskConfig.readings). dataset
-    may join several with `+` (`train+profile_train+multi_peg_train`): their modules train
-    together, as one set, where their files carry the same physics."""
+    it floats); readings, camera: what it adds to the observation (TaskConfig.readings,
+    TaskConfig.camera). dataset may join several with `+`
+    (`train+profile_train+multi_peg_train`): their modules train together, as one set, where
+    their files carry the same physics."""
     options = (curriculum_steps, keep_physics, curriculum_success, module_replay, near_starts,
-               axis_shaping, readings, inside_starts, inside_starts_until)  # fmt: skip
+               axis_shaping, readings, inside_starts, inside_starts_until, camera)  # fmt: skip
     parts = [train_config(name, *options) for name in str(dataset).split("+")]
     root, config = parts[0]
     if len(parts) > 1:
@@ -820,6 +859,7 @@ def make_eval_env(
     physx: PhysxConfig | None = None,
     robot: str | None = None,
     readings: tuple[str, ...] = (),
+    camera: CameraConfig | None = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -829,14 +869,16 @@ def make_eval_env(
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
     keep_physics: as for make_train_env. engine: a registered engine's name (physx with the PhysX
-    settings `physx`). robot: a registered robot holds the peg (None: it floats); readings:
-    what it adds to the observation (TaskConfig.readings)."""
+    settings `physx`). robot: a registered robot holds the peg (None: it floats); readings,
+    camera: what it adds to the observation (TaskConfig.readings, TaskConfig.camera)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)
     config = replace(eval_config(noise_scale), physics=check_physics(root, keep_physics))
     if readings:
         config = replace(config, readings=tuple(readings)).validate()
+    if camera is not None:
+        config = replace(config, camera=camera).validate()
     ids = None
     if modules is not None:
         if modules < 1:
@@ -876,6 +918,8 @@ def make_eval_env(
             env.protocol["refused_modules"] = sorted(env.refused)
     if readings:
         env.protocol["readings"] = list(readings)
+    if camera is not None:
+        env.protocol["camera"] = asdict(camera)
     if ids is not None:
         env.protocol["modules"] = len(ids)  # a subset: the first N of the dataset's modules
     env.protocol.update(env.sim.protocol())  # the engine's own settings, if any

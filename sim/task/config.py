@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from assetgen.core.mujoco_config import PhysicsConfig
+from sim.cameras.config import CameraConfig
 
 __all__ = ["EVAL_CONFIG", "PhysicsConfig", "TaskConfig"]
 
@@ -124,6 +125,10 @@ class TaskConfig:
     """Std of the Gaussian noise on each joint position reading, rad."""
     joint_velocity_noise: float = 0.01
     """Std of the Gaussian noise on each joint velocity reading, rad/s."""
+    camera: CameraConfig | None = None
+    """A camera's image appended to the observation after the readings, flattened (channels,
+    height, width) with its sensor noise where the task's noise is on (sim/cameras,
+    docs/cameras.md). None: no image, and every draw is the paper's."""
     physics: PhysicsConfig | None = None
     """MuJoCo settings. None: the project's physics for the modules' clearance
     (assetgen.core.mujoco_config.physics_for: finer steps for finer clearances), which the
@@ -176,6 +181,8 @@ class TaskConfig:
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
             raise ValueError(f"TaskConfig: these must hold: {bad}")
+        if self.camera is not None:
+            self.camera.validate()
         return self
 
 
