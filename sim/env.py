@@ -49,7 +49,7 @@ from sim.engines.registry import DEFAULT_ENGINE, get_engine
 from sim.robots.registry import check_robot
 from sim.task import kernel as K
 from sim.task import rules as T
-from sim.task.config import READINGS, TaskConfig, reading_noise
+from sim.task.config import ENV_READINGS, READINGS, TaskConfig, reading_noise
 from sim.task.curriculum import SuccessCurriculum
 from sim.task.module_replay import ModuleReplay
 from sim.task.takeoff_gate import TakeoffGate
@@ -231,7 +231,8 @@ class PegInHoleVecEnv:
         self._reading_noise = reading_noise(self.cfg)
         self.obs_dim = T.OBS_DIM + len(self._reading_noise)
         for r in self.cfg.readings:  # an engine without them refuses here, not mid-run
-            self.sim.readings(r)
+            if r not in ENV_READINGS:
+                self.sim.readings(r)
         self.camera = None
         """The camera drawing the image after the readings (TaskConfig.camera), or None."""
         if self.cfg.camera is not None:
@@ -345,7 +346,7 @@ class PegInHoleVecEnv:
         out holds those envs), with their noise (drawn only when there are readings: without
         them, the draws are the paper's)."""
         if self.cfg.readings:
-            values = np.concatenate([self.sim.readings(r)[idx] for r in self.cfg.readings], 1)
+            values = np.concatenate([self._reading(r, idx) for r in self.cfg.readings], axis=1)
             if self.cfg.noise:
                 values = values + self._reading_noise * self.rng.standard_normal(values.shape)
             out[rows, T.OBS_DIM : T.OBS_DIM + len(self._reading_noise)] = values
@@ -357,6 +358,14 @@ class PegInHoleVecEnv:
             if self.cfg.noise:
                 corrupt(images, self.camera.cfg, self.rng)
             out[rows, T.OBS_DIM + len(self._reading_noise) :] = images.reshape(len(images), -1)
+
+    def _reading(self, name: str, idx: np.ndarray) -> np.ndarray:
+        """(k, n) the reading `name` of envs idx, noise-free: the env's own (ENV_READINGS) or
+        the engine's."""
+        if name == "peg":  # position, then the rotation's first two columns
+            rot = T.pose(self.sim.peg_pos[idx], self.sim.peg_quat[idx])[:, :3, :3]
+            return np.concatenate([self.sim.peg_pos[idx], rot[:, :, 0], rot[:, :, 1]], axis=1)
+        return self.sim.readings(name)[idx]
 
     def observation_layout(self) -> list[tuple[str, slice, tuple[int, ...]]]:
         """What each part of an observation holds: (name, its columns, its shape), in order:

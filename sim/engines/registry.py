@@ -173,7 +173,10 @@ def check_device(args: argparse.Namespace) -> None:
     from sim.robots.registry import check_robot
 
     check_robot(getattr(args, "robot", None), spec.name)  # --robot on an engine without it
-    if getattr(args, "readings", None) and getattr(args, "robot", None) is None:
+    from sim.task.config import ENV_READINGS
+
+    robot_only = [r for r in getattr(args, "readings", None) or () if r not in ENV_READINGS]
+    if robot_only and getattr(args, "robot", None) is None:
         raise ValueError(
             f"--readings {','.join(args.readings)}: the floating peg has no wrist or joints; "
             "give --robot panda as well"

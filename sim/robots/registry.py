@@ -142,6 +142,7 @@ def add_robot_argument(p: argparse.ArgumentParser) -> None:
         "--readings",
         metavar="NAMES",
         action=_ReadingsAction,
-        help="with --robot: readings appended to the observation, comma-separated: wrist "
-        "(force/torque at the flange, 6 values), joints (positions and velocities, 14)",
+        help="readings appended to the observation, comma-separated: peg (its own pose in "
+        "the module frame, 9 values), and with --robot: wrist (force/torque at the flange, 6), "
+        "joints (positions and velocities, 14)",
     )

@@ -22,9 +22,14 @@ __all__ = ["EVAL_CONFIG", "PhysicsConfig", "TaskConfig"]
 READINGS: dict[str, tuple[tuple[str, int], ...]] = {
     "wrist": (("wrist_force_noise", 3), ("wrist_torque_noise", 3)),
     "joints": (("joint_position_noise", 7), ("joint_velocity_noise", 7)),
+    "peg": (("peg_position_noise", 3), ("peg_rotation_noise", 6)),
 }
-"""The readings a robot adds to the observation (TaskConfig.readings): each a run of values,
-(the TaskConfig field of their noise's std, how many) in order."""
+"""The readings that can join the observation (TaskConfig.readings): each a run of values,
+(the TaskConfig field of their noise's std, how many) in order. "wrist" and "joints" are a
+robot's; "peg" is every embodiment's."""
+ENV_READINGS = ("peg",)
+"""Readings the env computes from the pegs' poses, whatever holds them (the rest are the
+engine's: a robot's)."""
 
 
 @dataclass(frozen=True)
@@ -115,8 +120,11 @@ class TaskConfig:
     readings: tuple[str, ...] = ()
     """Readings appended to the 18-D observation, in this order, from READINGS: "wrist"
     (the wrist's force N and torque N m on the peg, peg frame: 6 values) and "joints" (the
-    arm's joint positions rad and velocities rad/s: 14). A robot's only: the floating peg
-    has neither. Empty: the paper's observation, draw for draw."""
+    arm's joint positions rad and velocities rad/s: 14), a robot's only; "peg" (the peg's
+    own pose in the module frame: its position m, then the first two columns of its
+    rotation matrix: 9 values), what a robot knows of its hand from its joints
+    (proprioception), for every embodiment. Empty: the paper's observation, draw for
+    draw."""
     wrist_force_noise: float = 1.0
     """Std of the Gaussian noise on each wrist force reading, N (Forge's 1 N)."""
     wrist_torque_noise: float = 0.05
@@ -125,6 +133,11 @@ class TaskConfig:
     """Std of the Gaussian noise on each joint position reading, rad."""
     joint_velocity_noise: float = 0.01
     """Std of the Gaussian noise on each joint velocity reading, rad/s."""
+    peg_position_noise: float = 0.0005
+    """Std of the Gaussian noise on each coordinate of the peg reading's position, m."""
+    peg_rotation_noise: float = 0.01
+    """Std of the Gaussian noise on each entry of the peg reading's rotation columns (0.01:
+    about 0.6 degrees)."""
     camera: CameraConfig | None = None
     """A camera's image appended to the observation after the readings, flattened (channels,
     height, width) with its sensor noise where the task's noise is on (sim/cameras,
