@@ -146,6 +146,7 @@ PROJECT_ERRORS = frozenset((
     "preview.scene.PreviewError",
     "sim.robots.panda.model.MissingRobotError",
     "sim.robots.panda.sim.UnreachableError",
+    "sim.cameras.gl.CameraError",
 ))  # fmt: skip
 """The project's exceptions whose message is written for the user (it names the file or
 value and says what to do), by class path: matching them imports no package (rl's would

@@ -4,9 +4,12 @@
     python -m benchmarks.vision check --seed S [--modules 32] [--steps 150] [--out DIR]
     python -m benchmarks.vision eval --seed S [--dataset test] [--attempts 10] [--out DIR]
 
-train: rl/student/dagger.py's distillation of checkpoints/sac-direct-bc on the train split for
---minutes of wall clock, one torch thread and one simulator thread, into DIR (default
-runs/vision/student-sS); --beta-decay near 1 keeps the teacher driving (behaviour cloning).
+train: rl/student/dagger.py's distillation of checkpoints/sac-direct-bc on the train split
+(--envs 32, the full spawn ranges, the wrist camera's depth at 64 x 64) for --minutes of wall
+clock, one torch thread, into DIR (default
+runs/vision/student-sS); --beta-decay near 1 keeps the teacher driving (behaviour cloning);
+--own-seat labels with the seat's own frame (rl/student/symmetry.py: the default shows the
+teacher the nearest seat that looks the same).
 check: the student's actions against the teacher's on the teacher's own episodes (the teacher
 drives) on the first --modules train modules: the mean squared difference per action
 component over the first 30 control steps (the approach) and over the rest (at the hole),
@@ -18,6 +21,7 @@ student; writes docs/results/vision/student-sS_<dataset>.json.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,19 +35,20 @@ APPROACH = 30
 
 def check(run: Path, teacher: str, modules: int, steps: int) -> dict:
     """The figures `check` prints (see the module doc)."""
-    from rl.run_state import load_agent
-    from rl.student.dagger import READINGS, Student
+    from rl.student.dagger import READINGS, Student, load_teacher, teacher_view
+    from sim.cameras.config import CameraConfig
     from sim.env import make_eval_env
 
     student, _ = Student.load(run)
-    agent, _ = load_agent(teacher, "cpu")
+    agent = load_teacher(teacher)
     env = make_eval_env("train", None, 0, modules=modules, readings=READINGS,
-                        camera=student.cfg.camera)  # fmt: skip
+                        camera=CameraConfig(**student.camera))  # fmt: skip
     student.bind(env)
+    teacher_obs = teacher_view(env, student.cfg)
     obs = env.reset(seed=0)
     errors, ended, won = [], np.zeros(env.num_envs, bool), np.zeros(env.num_envs, bool)
     for _ in range(steps):
-        expert = np.clip(agent.policy(obs[:, :18], deterministic=True), -1.0, 1.0)
+        expert = np.clip(agent.policy(teacher_obs(obs), deterministic=True), -1.0, 1.0)
         live = ~ended
         errors.append(np.where(live, ((student.act(obs) - expert) ** 2).mean(1), np.nan))
         obs, _, terminated, truncated, info = env.step(expert)
@@ -64,10 +69,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--minutes", type=float, default=40.0)
     ap.add_argument("--beta-decay", type=float, default=None)
+    ap.add_argument(
+        "--own-seat",
+        action="store_true",
+        help="train: label with the seat's own frame, not the nearest look-alike",
+    )
     ap.add_argument("--teacher", default=TEACHER)
     ap.add_argument("--dataset", default="test")
     ap.add_argument("--attempts", type=int, default=10)
     ap.add_argument("--modules", type=int, default=32)
+    ap.add_argument("--envs", type=int, default=32, help="train: training envs")
     ap.add_argument("--steps", type=int, default=150)
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
@@ -75,7 +86,9 @@ def main(argv: list[str] | None = None) -> None:
     torch.set_num_threads(1)
     if a.what == "train":
         from rl.student.config import StudentConfig
-        from rl.student.dagger import distill
+        from rl.student.dagger import READINGS, distill
+        from sim.cameras.config import CameraConfig
+        from sim.env import make_train_env
 
         def show(row: dict) -> None:
             print(f"iteration {row['iteration']:3d} · {row['env_steps'] / 1e3:7.1f} k env steps"
@@ -83,10 +96,13 @@ def main(argv: list[str] | None = None) -> None:
                   f"{row['loss']:.4f} · student success {row['student_success_rate']:.3f} "
                   f"({row['student_episodes']} episodes)", flush=True)  # fmt: skip
 
-        cfg = StudentConfig()
+        cfg = StudentConfig(nearest_seat=not a.own_seat)
         if a.beta_decay is not None:
-            cfg = StudentConfig(beta_decay=a.beta_decay)
-        distill(a.teacher, "train", run, a.minutes, a.seed, cfg, progress=show)
+            cfg = replace(cfg, beta_decay=a.beta_decay)
+        env = make_train_env("train", a.envs, a.seed, curriculum_steps=0, readings=READINGS,
+                             camera=CameraConfig())  # fmt: skip
+        distill(a.teacher, env, run, a.minutes, a.seed, cfg, progress=show)
+        env.close()
     elif a.what == "check":
         r = check(run, a.teacher, a.modules, a.steps)
         print(f"{run}: on the teacher's episodes of {r['modules']} train modules (teacher "
@@ -95,7 +111,7 @@ def main(argv: list[str] | None = None) -> None:
               f"{r['hole']:.4f} after")  # fmt: skip
     else:
         from assetgen.core.atomic_file import strict_json, write_json
-        from rl.student.dagger import evaluate_student
+        from evaluation.student import evaluate_student
 
         res = evaluate_student(run, a.dataset, a.attempts, seed=a.seed)
         out = write_json(RESULTS / f"student-s{a.seed}_{a.dataset}.json", strict_json(res))

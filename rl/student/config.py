@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-from sim.cameras.config import CameraConfig
+from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
 class StudentConfig:
     """DAgger (Ross et al. 2011) from a privileged teacher to a student that sees a depth
-    image and the peg's own pose (the "peg" reading), never the hole's pose."""
+    image and the peg's own pose (the "peg" reading), never the hole's pose. Its camera is the
+    env's (sim.cameras: the wrist's depth, 64 x 64, in benchmarks/vision.py)."""
 
-    camera: CameraConfig = field(default_factory=CameraConfig)
-    """The student's camera (the wrist's depth, 64 x 64, by default)."""
-    envs: int = 32
-    """Training envs (the modules taken in turns)."""
     collect_steps: int = 250
     """Vector steps of play per DAgger iteration (x envs frames, each labelled by the
     teacher)."""
@@ -34,17 +29,14 @@ class StudentConfig:
     """The image encoder's output features."""
     hidden: tuple[int, ...] = (256, 256)
     """The head's hidden layers (image features and the peg's pose in, the action out)."""
+    nearest_seat: bool = True
+    """Show the teacher the nearest of the seat's frames that look the same (a peg that fits
+    its hole turned by half a turn: rl/student/symmetry.py), so that its labels are a function
+    of what the camera sees; False: the seat's own frame."""
 
     def validate(self) -> StudentConfig:
         """Self, or ValueError naming each value out of its range."""
-        self.camera.validate()
-        if "depth" not in self.camera.channels:
-            raise ValueError(
-                f"StudentConfig: camera modality {self.camera.modality!r}: the student reads "
-                "depth; give depth or rgbd"
-            )
         checks = {
-            "envs >= 1": self.envs >= 1,
             "collect_steps >= 1": self.collect_steps >= 1,
             "grad_steps >= 1": self.grad_steps >= 1,
             "batch_size >= 1": self.batch_size >= 1,

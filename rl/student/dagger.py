@@ -10,9 +10,11 @@ aggregated frames (mean squared error) for `grad_steps` steps. So the student le
 recover from the states its own mistakes lead to, which behaviour cloning of the teacher's
 episodes alone never shows it.
 
-A run folder holds `student.safetensors` (the weights and, in its metadata, the settings,
-the teacher and the counters; rewritten atomically after every iteration) and `metrics.csv`
-(one row an iteration).
+The env is the caller's (a vector env made with the "peg" reading and a depth camera:
+benchmarks/vision.py), so the agents stay apart from the simulator. A run folder holds
+`student.safetensors` (the weights and, in its metadata, the settings, the camera, the
+teacher and the counters; rewritten atomically after every iteration) and `metrics.csv` (one
+row an iteration).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import torch
 from rl import checkpoint as ckpt
 from rl.student.config import StudentConfig
 from rl.student.net import VisionPolicy
-from sim.cameras.config import CameraConfig
+from rl.student.symmetry import half_turn_symmetric, nearest_seat
 
 FILE_NAME = "student.safetensors"
 READINGS = ("peg",)
@@ -39,42 +41,55 @@ METRICS = ("iteration", "env_steps", "wall_s", "beta", "frames", "loss", "studen
            "student_success_rate")  # fmt: skip
 
 
-def _parts(env: Any, cfg: StudentConfig) -> tuple[slice, slice]:
-    """The columns of the observation the student reads: the peg reading's and the depth
-    channel of its camera's image."""
-    layout = {name: cols for name, cols, _ in env.observation_layout()}
-    name = f"camera_{cfg.camera.view}_{cfg.camera.modality}"
-    if "peg" not in layout or name not in layout:
+def camera_record(env: Any) -> dict[str, Any]:
+    """The env's camera (TaskConfig.camera) as a plain record, as the student keeps it."""
+    camera = getattr(env.cfg, "camera", None)
+    if camera is None:
+        raise ValueError("the student sees: make its env with a camera (TaskConfig.camera)")
+    return asdict(camera)
+
+
+def _columns(env: Any, camera: dict[str, Any]) -> tuple[slice, slice]:
+    """The columns of `env`'s observation the student reads: the peg reading's and the depth
+    channel of its camera's image (the last channel of depth and rgbd)."""
+    layout = {name: (cols, shape) for name, cols, shape in env.observation_layout()}
+    name = f"camera_{camera['view']}_{camera['modality']}"
+    if "peg" not in layout or name not in layout or camera["modality"] == "rgb":
         raise ValueError(
-            f"the env's observation has {sorted(layout)}: the student needs 'peg' and {name!r} "
-            f"(readings={READINGS}, camera={cfg.camera})"
+            f"the env's observation has {sorted(layout)}: the student needs 'peg' and a depth "
+            f"camera's image (readings={READINGS}, a camera with depth or rgbd)"
         )
-    cam = layout[name]
-    pixels = cfg.camera.height * cfg.camera.width
-    first = cam.start + cfg.camera.channels.index("depth") * pixels
-    return layout["peg"], slice(first, first + pixels)
+    cols, (channels, height, width) = layout[name]
+    first = cols.start + (channels - 1) * height * width
+    return layout["peg"][0], slice(first, first + height * width)
 
 
 class Student:
-    """The student's network and the columns it reads: `act(obs)` -> (N, 6) actions."""
+    """The student's network, its camera and the columns it reads: `act(obs)` -> actions."""
 
-    def __init__(self, cfg: StudentConfig, net: VisionPolicy | None = None) -> None:
+    def __init__(self, cfg: StudentConfig, camera: dict[str, Any]) -> None:
         self.cfg = cfg.validate()
-        c = cfg.camera
-        self.net = net or VisionPolicy(c.height, c.width, c.far, cfg.feature_dim, cfg.hidden)
+        self.camera = dict(camera)
+        c = self.camera
+        self.net = VisionPolicy(c["height"], c["width"], c["far"], cfg.feature_dim, cfg.hidden)
         self.cols: tuple[slice, slice] | None = None
 
     def bind(self, env: Any) -> Student:
-        """Read the columns of `env`'s observations (one made with READINGS and the camera)."""
-        self.cols = _parts(env, self.cfg)
+        """Read the columns of `env`'s observations; ValueError for an env whose camera is
+        not the student's."""
+        if camera_record(env) != self.camera:
+            raise ValueError(
+                f"the env's camera {camera_record(env)} is not the student's {self.camera}: "
+                "make the env with the student's camera"
+            )
+        self.cols = _columns(env, self.camera)
         return self
 
     def inputs(self, obs: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
         peg, depth = self.cols
-        c = self.cfg.camera
         image = torch.from_numpy(np.ascontiguousarray(obs[:, depth], dtype=np.float32))
         pose = torch.from_numpy(np.ascontiguousarray(obs[:, peg], dtype=np.float32))
-        return image.view(-1, 1, c.height, c.width), pose
+        return image.view(-1, 1, self.camera["height"], self.camera["width"]), pose
 
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
@@ -82,7 +97,7 @@ class Student:
 
     def save(self, path: Path, doc: dict[str, Any]) -> None:
         tensors = {f"net/{k}": v for k, v in self.net.state_dict().items()}
-        ckpt.save(path, tensors, {"student": asdict(self.cfg), **doc})
+        ckpt.save(path, tensors, {"student": asdict(self.cfg), "camera": self.camera, **doc})
 
     @classmethod
     def load(cls, run: str | Path) -> tuple[Student, dict[str, Any]]:
@@ -92,47 +107,57 @@ class Student:
         tensors, doc = ckpt.load(path)
         if "student" not in doc:
             raise ckpt.CheckpointError(f"{path} is a checkpoint, but not a student's")
-        d = dict(doc["student"])
-        cam = d.pop("camera")
-        cam = CameraConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cam.items()})
-        cfg = StudentConfig(camera=cam, **{k: tuple(v) if isinstance(v, list) else v
-                                           for k, v in d.items()})  # fmt: skip
-        student = cls(cfg)
+        d = {k: tuple(v) if isinstance(v, list) else v for k, v in doc["student"].items()}
+        camera = {k: tuple(v) if isinstance(v, list) else v for k, v in doc["camera"].items()}
+        student = cls(StudentConfig(**d), camera)
         student.net.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("net/")})
         student.net.eval()
         return student, doc
 
 
-def distill(
-    teacher: str | Path,
-    dataset: str,
-    out: str | Path,
-    minutes: float,
-    seed: int = 0,
-    cfg: StudentConfig | None = None,
-    progress: Callable[[dict[str, float]], None] | None = None,
-) -> dict[str, Any]:
-    """Distil the checkpoint `teacher` (a policy on the 18-D pose) into a student on `dataset`
-    for `minutes` of wall clock (whole iterations; at least one); writes the run folder `out`
-    (see the module doc) and returns the last metrics row."""
-    from rl.run_state import load_agent
-    from sim.env import make_train_env
+def teacher_view(env: Any, cfg: StudentConfig) -> Callable[[np.ndarray], np.ndarray]:
+    """obs (n, obs_dim) of `env` -> what the teacher observes (n, 18): the pose, with the
+    nearest look-alike seat where cfg.nearest_seat (rl/student/symmetry.py)."""
+    if not cfg.nearest_seat:
+        return lambda obs: obs[:, :18]
+    symmetric = np.array([half_turn_symmetric(m.peg) for m in env.modules])
+    return lambda obs: nearest_seat(obs[:, :18], symmetric[env.env_module])
 
-    cfg = (cfg or StudentConfig()).validate()
-    torch.manual_seed(seed)
-    rng = np.random.default_rng(seed)
+
+def load_teacher(teacher: str | Path) -> Any:
+    """The teacher agent of a checkpoint: a policy on the 18-D pose alone."""
+    from rl.run_state import load_agent
+
     agent, meta = load_agent(teacher, "cpu")
     if meta["obs_dim"] != 18 or int(meta.get("stack", 1)) != 1:
         raise ValueError(
             f"teacher {teacher}: a policy on the 18-D pose alone (obs_dim {meta['obs_dim']}, "
             f"stack {meta.get('stack', 1)}); give one trained without readings or a stack"
         )
-    env = make_train_env(dataset, cfg.envs, seed, curriculum_steps=0, readings=READINGS,
-                         camera=cfg.camera)  # fmt: skip
-    student = Student(cfg).bind(env)
+    return agent
+
+
+def distill(
+    teacher: str | Path,
+    env: Any,
+    out: str | Path,
+    minutes: float,
+    seed: int = 0,
+    cfg: StudentConfig | None = None,
+    progress: Callable[[dict[str, float]], None] | None = None,
+) -> dict[str, Any]:
+    """Distil the checkpoint `teacher` into a student on the training env `env` (made with
+    READINGS and a depth camera) for `minutes` of wall clock (whole iterations; at least one);
+    writes the run folder `out` (see the module doc) and returns the last metrics row."""
+    cfg = (cfg or StudentConfig()).validate()
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    agent = load_teacher(teacher)
+    student = Student(cfg, camera_record(env)).bind(env)
+    teacher_obs = teacher_view(env, cfg)
     opt = torch.optim.Adam(student.net.parameters(), lr=cfg.learning_rate)
-    c, n_env = cfg.camera, cfg.envs
-    images = np.zeros((cfg.buffer_size, 1, c.height, c.width), dtype=np.float16)
+    c, n_env = student.camera, env.num_envs
+    images = np.zeros((cfg.buffer_size, 1, c["height"], c["width"]), dtype=np.float16)
     poses = np.zeros((cfg.buffer_size, 9), dtype=np.float32)
     labels = np.zeros((cfg.buffer_size, 6), dtype=np.float32)
     stored = head = 0
@@ -149,7 +174,7 @@ def distill(
         episodes = successes = 0
         student.net.eval()
         for _ in range(cfg.collect_steps):
-            expert = np.clip(agent.policy(obs[:, :18], deterministic=True), -1.0, 1.0)
+            expert = np.clip(agent.policy(teacher_obs(obs), deterministic=True), -1.0, 1.0)
             image, pose = student.inputs(obs)
             rows = (head + np.arange(n_env)) % cfg.buffer_size
             images[rows], poses[rows], labels[rows] = image.numpy(), pose.numpy(), expert
@@ -192,31 +217,8 @@ def distill(
         with open(metrics, "a", newline="") as f:
             csv.writer(f).writerow([row[k] for k in METRICS])
         student.net.eval()
-        student.save(out / FILE_NAME, {"teacher": str(teacher), "dataset": dataset,
-                                       "seed": seed, **row})  # fmt: skip
+        student.save(out / FILE_NAME, {"teacher": str(teacher), "seed": seed, **row})
         if progress is not None:
             progress(row)
         it += 1
-    env.close()
     return row
-
-
-def evaluate_student(
-    run: str | Path, dataset: str, attempts: int, seed: int = 0, modules: int | None = None
-) -> dict[str, Any]:
-    """The paper's protocol (one env per module, `attempts` episodes each, noise on) for the
-    student in `run`: evaluation/protocol.py's result with the protocol's fields."""
-    from evaluation.protocol import evaluate
-    from evaluation.recording import env_labels
-    from sim.env import make_eval_env
-
-    student, doc = Student.load(run)
-    env = make_eval_env(dataset, None, seed, modules=modules, readings=READINGS,
-                        camera=student.cfg.camera)  # fmt: skip
-    student.bind(env)
-    res = evaluate(student.act, env, attempts, seed=seed, labels=env_labels(env),
-                   live=getattr(env, "set_live", None))  # fmt: skip
-    env.close()
-    head = {"algo": "student", "run": str(run), "teacher": doc["teacher"],
-            "trained_env_steps": doc["env_steps"], "policy": "deterministic"}  # fmt: skip
-    return {**head, **env.protocol, "attempts": attempts, "seed": seed, **res}
