@@ -3,15 +3,16 @@ and for every episode the step limit cuts short (a jam), the peg's place relativ
 and what the policy commands over its last second.
 
     python -m benchmarks.jams RUN_DIR [--dataset train] [--modules 64] [--stochastic]
-                              [--json out.json]
+                              [--robot panda] [--json out.json]
 
 Printed per jam: the peg's offset from the hole's axis (mm, in the bottom frame), how deep
 its frame's origin (the centre of its bottom face) is below the hole's entrance (mm; < 0:
 above the plate), its tilt from the axis (degrees), how far it moved over the last 50
 control steps (peak to peak, mm), and the mean clipped action over those steps (x, y, z in
 [-1, 1]; z < 0 presses down). A peg beside the hole with z at -1 and small x, y is pressed
-onto the plate harder than its lateral command can slide it: friction holds it. Tune on the
-train split only.
+onto the plate harder than its lateral command can slide it: friction holds it. `--robot`
+plays the episodes through a robot holding the peg (the modules it refuses are left out).
+Tune on the train split only.
 """
 
 from __future__ import annotations
@@ -25,13 +26,18 @@ from benchmarks.module_episodes import ModuleEpisodes, checkpoint_policy
 
 
 def run(
-    checkpoint: str, dataset: str, modules: int, stochastic: bool, seed: int = 0
+    checkpoint: str,
+    dataset: str,
+    modules: int,
+    stochastic: bool,
+    seed: int = 0,
+    robot: str | None = None,
 ) -> dict[str, object]:
     """One episode per module; the jams' figures (see module doc)."""
     from rl.checkpoint import read_counters
 
     act, stack, reset = checkpoint_policy(checkpoint, not stochastic, seed)
-    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset)
+    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset, robot)
     env, n, tail = episodes.env, episodes.env.num_envs, 50
     pos = np.zeros((tail, n, 3))
     below = tilt = np.zeros(n)
@@ -74,11 +80,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--dataset", default="train")
     p.add_argument("--modules", type=int, default=64)
     p.add_argument("--stochastic", action="store_true")
+    p.add_argument("--robot", default=None, help="a robot holds the peg (e.g. panda)")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     if args.modules < 1:
         p.error(f"--modules {args.modules}: give at least 1")
-    res = run(args.checkpoint, args.dataset, args.modules, args.stochastic)
+    res = run(args.checkpoint, args.dataset, args.modules, args.stochastic, robot=args.robot)
     jams = res["jams"]
     print(
         f"{res['modules']} modules, {res['policy']} policy: {res['successes']} successes, "

@@ -45,10 +45,11 @@ class ModuleEpisodes:
         seed: int = 0,
         stack: int = 1,
         reset: Reset | None = None,
+        robot: str | None = None,
     ) -> None:
         from sim.env import make_eval_env
 
-        self.env: Any = make_eval_env(dataset, None, seed, modules=modules)
+        self.env: Any = make_eval_env(dataset, None, seed, modules=modules, robot=robot)
         self._policy_env: Any = self.env
         if stack > 1:  # the policy sees its training's stack of observations
             from rl.stack import StackObs
