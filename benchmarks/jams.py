@@ -3,7 +3,7 @@ and for every episode the step limit cuts short (a jam), the peg's place relativ
 and what the policy commands over its last second.
 
     python -m benchmarks.jams RUN_DIR [--dataset train] [--modules 64] [--stochastic]
-                              [--robot panda] [--json out.json]
+                              [--robot panda [--robot-set FIELD=VALUE ...]] [--json out.json]
 
 Printed per jam: the peg's offset from the hole's axis (mm, in the bottom frame), how deep
 its frame's origin (the centre of its bottom face) is below the hole's entrance (mm; < 0:
@@ -11,7 +11,8 @@ above the plate), its tilt from the axis (degrees), how far it moved over the la
 control steps (peak to peak, mm), and the mean clipped action over those steps (x, y, z in
 [-1, 1]; z < 0 presses down). A peg beside the hole with z at -1 and small x, y is pressed
 onto the plate harder than its lateral command can slide it: friction holds it. `--robot`
-plays the episodes through a robot holding the peg (the modules it refuses are left out).
+plays the episodes through a robot holding the peg (the modules it refuses are left out);
+`--robot-set` changes a field of its settings (the Panda's ArmSettings, e.g. max_force=20).
 Tune on the train split only.
 """
 
@@ -32,12 +33,13 @@ def run(
     stochastic: bool,
     seed: int = 0,
     robot: str | None = None,
+    robot_settings: object = None,
 ) -> dict[str, object]:
     """One episode per module; the jams' figures (see module doc)."""
     from rl.checkpoint import read_counters
 
     act, stack, reset = checkpoint_policy(checkpoint, not stochastic, seed)
-    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset, robot)
+    episodes = ModuleEpisodes(act, dataset, modules, seed, stack, reset, robot, robot_settings)
     env, n, tail = episodes.env, episodes.env.num_envs, 50
     pos = np.zeros((tail, n, 3))
     below = tilt = np.zeros(n)
@@ -81,11 +83,31 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modules", type=int, default=64)
     p.add_argument("--stochastic", action="store_true")
     p.add_argument("--robot", default=None, help="a robot holds the peg (e.g. panda)")
+    p.add_argument(
+        "--robot-set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="with --robot panda: a field of its ArmSettings (repeatable)",
+    )
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     if args.modules < 1:
         p.error(f"--modules {args.modules}: give at least 1")
-    res = run(args.checkpoint, args.dataset, args.modules, args.stochastic, robot=args.robot)
+    settings = None
+    if args.robot_set:
+        if args.robot != "panda":
+            p.error("--robot-set: give --robot panda as well")
+        from assetgen.core.overrides import parse_overrides
+        from sim.robots.panda.model import ArmSettings
+
+        try:
+            over = parse_overrides(ArmSettings, args.robot_set, "--robot-set")
+            settings = ArmSettings(**over).validate()
+        except ValueError as e:
+            p.error(str(e))
+    res = run(args.checkpoint, args.dataset, args.modules, args.stochastic, robot=args.robot,
+              robot_settings=settings)  # fmt: skip
     jams = res["jams"]
     print(
         f"{res['modules']} modules, {res['policy']} policy: {res['successes']} successes, "

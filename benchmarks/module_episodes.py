@@ -46,10 +46,12 @@ class ModuleEpisodes:
         stack: int = 1,
         reset: Reset | None = None,
         robot: str | None = None,
+        robot_settings: Any = None,
     ) -> None:
         from sim.env import make_eval_env
 
-        self.env: Any = make_eval_env(dataset, None, seed, modules=modules, robot=robot)
+        self.env: Any = make_eval_env(dataset, None, seed, modules=modules, robot=robot,
+                                      robot_settings=robot_settings)  # fmt: skip
         self._policy_env: Any = self.env
         if stack > 1:  # the policy sees its training's stack of observations
             from rl.stack import StackObs

@@ -869,6 +869,7 @@ def make_eval_env(
     robot: str | None = None,
     readings: tuple[str, ...] = (),
     camera: CameraConfig | None = None,
+    robot_settings: Any = None,
 ) -> PegInHoleVecEnv:
     """rl's `make_env` for evaluation: noise on, curriculum off (full spawn ranges), and the
     paper's protocol of one env per module. num_envs is an upper bound (None: none): fewer
@@ -878,8 +879,9 @@ def make_eval_env(
     control period and the noise scale, for the evaluation file. modules: the dataset's
     first `modules` modules only (a training run's probe; the protocol uses all).
     keep_physics: as for make_train_env. engine: a registered engine's name (physx with the PhysX
-    settings `physx`). robot: a registered robot holds the peg (None: it floats); readings,
-    camera: what it adds to the observation (TaskConfig.readings, TaskConfig.camera)."""
+    settings `physx`). robot: a registered robot holds the peg (None: it floats), with its
+    own settings `robot_settings` (None: its defaults); readings, camera: what it adds to the
+    observation (TaskConfig.readings, TaskConfig.camera)."""
     from assetgen.dataset.reader import Dataset, content_hash
 
     root = dataset_root(dataset)
@@ -907,6 +909,7 @@ def make_eval_env(
         engine=engine,
         physx=physx,
         robot=robot,
+        robot_settings=robot_settings,
     )
     ds = Dataset(root)
     env.protocol = {

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 import rl.checkpoint
 import rl.run_state
@@ -40,3 +41,16 @@ def test_a_peg_pressed_down_beside_the_hole_is_reported_as_a_jam(
         assert abs(r["below_entrance_mm"]) < 5.0 and r["moved_mm"] < 1.0  # at the plate, held
         assert r["action_xyz"][2] < -0.1
     assert "2 jams" in capsys.readouterr().out
+
+
+def test_robot_settings_are_checked_before_any_episode(capsys) -> None:
+    from benchmarks.jams import main
+
+    for argv, said in (
+        (["--robot-set", "max_force=20"], "give --robot panda as well"),
+        (["--robot", "panda", "--robot-set", "stiffness=3"], "ArmSettings's fields"),
+        (["--robot", "panda", "--robot-set", "max_force=-1"], "max_force"),
+    ):
+        with pytest.raises(SystemExit) as e:
+            main(["checkpoints/sac-teacher-free", *argv])
+        assert e.value.code == 2 and said in capsys.readouterr().err

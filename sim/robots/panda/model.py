@@ -121,6 +121,8 @@ class ArmSettings:
                 "kv_lin > 0": self.kv_lin > 0,
                 "kv_rot > 0": self.kv_rot > 0,
                 "posture_stiffness >= 0": self.posture_stiffness >= 0,
+                "max_force is None or > 0": self.max_force is None or self.max_force > 0,
+                "max_torque is None or > 0": self.max_torque is None or self.max_torque > 0,
             }.items()
             if not ok
         ]
