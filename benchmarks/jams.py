@@ -12,7 +12,8 @@ control steps (peak to peak, mm), and the mean clipped action over those steps (
 [-1, 1]; z < 0 presses down). A peg beside the hole with z at -1 and small x, y is pressed
 onto the plate harder than its lateral command can slide it: friction holds it. `--robot`
 plays the episodes through a robot holding the peg (the modules it refuses are left out);
-`--robot-set` changes a field of its settings (the Panda's ArmSettings, e.g. max_force=20).
+`--robot-set` changes a field of its settings (the registry's entry: the Panda's
+ArmSettings, e.g. max_force=20).
 Tune on the train split only.
 """
 
@@ -96,14 +97,14 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--modules {args.modules}: give at least 1")
     settings = None
     if args.robot_set:
-        if args.robot != "panda":
+        if args.robot is None:
             p.error("--robot-set: give --robot panda as well")
         from assetgen.core.overrides import parse_overrides
-        from sim.robots.panda.model import ArmSettings
+        from sim.robots.registry import get_robot
 
         try:
-            over = parse_overrides(ArmSettings, args.robot_set, "--robot-set")
-            settings = ArmSettings(**over).validate()
+            cls = get_robot(args.robot).load("settings")
+            settings = cls(**parse_overrides(cls, args.robot_set, "--robot-set")).validate()
         except ValueError as e:
             p.error(str(e))
     res = run(args.checkpoint, args.dataset, args.modules, args.stochastic, robot=args.robot,

@@ -42,13 +42,15 @@ class Robot:
     """The engines (sim/engines/registry.py) that carry it."""
     extra: str
     """The pip extra that installs its model."""
+    settings: str
+    """Its settings' frozen dataclass (EngineOptions.robot_settings; its fields are what
+    `--robot-set FIELD=VALUE` may change)."""
 
     def load(self, field: str) -> Any:
-        """The object that `field` ("sim", "scene", "refuses" or "stress") names."""
-        if field not in ("sim", "scene", "refuses", "stress"):
-            raise ValueError(
-                f"{field!r} is not one of a robot's fields ('sim', 'scene', 'refuses', 'stress')"
-            )
+        """The object that `field` ("sim", "scene", "refuses", "stress" or "settings") names."""
+        known = ("sim", "scene", "refuses", "stress", "settings")
+        if field not in known:
+            raise ValueError(f"{field!r} is not one of a robot's fields {known}")
         return load_reference(getattr(self, field))
 
 
@@ -64,6 +66,7 @@ ROBOTS: dict[str, Robot] = {
             stress="sim.robots.panda.stress:stress_on_panda",
             engines=("mujoco",),
             extra="robot",
+            settings="sim.robots.panda.model:ArmSettings",
         ),
     )
 }
