@@ -71,10 +71,10 @@ def strip(dataset: str, module: int, out: Path, every: int = 10) -> Path:
     envs = [make_eval_env(dataset, None, 0, modules=module + 1, camera=c) for c in views]
     frames: list[list[np.ndarray]] = [[] for _ in views]
     obs = [env.reset(seed=0) for env in envs]
+    parts = [env.observation_layout()[-1][1] for env in envs]  # the image's columns
     for _step in range(envs[0].cfg.max_steps):
         for j, env in enumerate(envs):
-            part = env.observation_layout()[-1][1]
-            frames[j].append(obs[j][module, part].reshape(env.cfg.camera.shape))
+            frames[j].append(obs[j][module, parts[j]].reshape(env.cfg.camera.shape))
         action = direct_expert_action(obs[0][:, :18])
         done = False
         for j, env in enumerate(envs):

@@ -82,6 +82,8 @@ def replay(dataset: str, module: str, label: str) -> dict:
     if worst[1] < 0:
         raise SystemExit(f"error: run {label!r} on {module} never touches")
 
+    physics_flags = int(m.opt.disableflags)
+
     def deepest(disable: int = 0) -> tuple[float, np.ndarray, int, int]:
         m.opt.disableflags = physics_flags | disable
         mujoco.mj_copyData(d, m, start)
@@ -90,7 +92,6 @@ def replay(dataset: str, module: str, label: str) -> dict:
         c = d.contact[i]
         return -float(c.dist), c.frame[:3].copy(), int(c.geom1), int(c.geom2)
 
-    physics_flags = int(m.opt.disableflags)
     depth, normal, g1, g2 = deepest()
     one = deepest(int(mujoco.mjtDisableBit.mjDSBL_MULTICCD))[0]
     ccd = deepest(int(mujoco.mjtDisableBit.mjDSBL_NATIVECCD))[0]

@@ -35,15 +35,12 @@ APPROACH = 30
 
 def check(run: Path, teacher: str, modules: int, steps: int) -> dict:
     """The figures `check` prints (see the module doc)."""
-    from rl.student.dagger import READINGS, Student, load_teacher, teacher_view
-    from sim.cameras.config import CameraConfig
-    from sim.env import make_eval_env
+    from evaluation.student import student_env
+    from rl.student.dagger import Student, load_teacher, teacher_view
 
     student, _ = Student.load(run)
     agent = load_teacher(teacher)
-    env = make_eval_env("train", None, 0, modules=modules, readings=READINGS,
-                        camera=CameraConfig(**student.camera))  # fmt: skip
-    student.bind(env)
+    env = student_env(student, "train", 0, modules)
     teacher_obs = teacher_view(env, student.cfg)
     obs = env.reset(seed=0)
     errors, ended, won = [], np.zeros(env.num_envs, bool), np.zeros(env.num_envs, bool)

@@ -7,6 +7,19 @@ from pathlib import Path
 from typing import Any
 
 
+def student_env(student: Any, dataset: str, seed: int, modules: int | None = None) -> Any:
+    """An evaluation env (noise on, one env per module) that shows `student` (rl/student) what
+    it reads: its camera and the peg reading; the student is bound to it."""
+    from rl.student.dagger import READINGS
+    from sim.cameras.config import CameraConfig
+    from sim.env import make_eval_env
+
+    env = make_eval_env(dataset, None, seed, modules=modules, readings=READINGS,
+                        camera=CameraConfig(**student.camera))  # fmt: skip
+    student.bind(env)
+    return env
+
+
 def evaluate_student(
     run: str | Path, dataset: str, attempts: int, seed: int = 0, modules: int | None = None
 ) -> dict[str, Any]:
@@ -15,14 +28,10 @@ def evaluate_student(
     and the student's teacher and training steps."""
     from evaluation.protocol import evaluate
     from evaluation.recording import env_labels
-    from rl.student.dagger import READINGS, Student
-    from sim.cameras.config import CameraConfig
-    from sim.env import make_eval_env
+    from rl.student.dagger import Student
 
     student, doc = Student.load(run)
-    env = make_eval_env(dataset, None, seed, modules=modules, readings=READINGS,
-                        camera=CameraConfig(**student.camera))  # fmt: skip
-    student.bind(env)
+    env = student_env(student, dataset, seed, modules)
     res = evaluate(student.act, env, attempts, seed=seed, labels=env_labels(env),
                    live=getattr(env, "set_live", None))  # fmt: skip
     env.close()

@@ -43,6 +43,7 @@ from assetgen.core.rotations import matrix_to_quat, quat_conj, quat_mul
 from sim.assets.loading import ModuleAsset, check_physics, dataset_root
 from sim.assets.task_modules import load_modules
 from sim.cameras.config import CameraConfig
+from sim.cameras.noise import corrupt
 from sim.engines.base import EngineOptions
 from sim.engines.physx.config import PhysxConfig
 from sim.engines.registry import DEFAULT_ENGINE, get_engine
@@ -229,17 +230,17 @@ class PegInHoleVecEnv:
         self._assisted = np.zeros(n, dtype=bool)  # this episode started inside the hole
         # a robot's readings after the 18 pose entries (TaskConfig.readings), with their noise
         self._reading_noise = reading_noise(self.cfg)
-        self.obs_dim = T.OBS_DIM + len(self._reading_noise)
+        self.obs_dim = self.observation_layout()[-1][1].stop
         for r in self.cfg.readings:  # an engine without them refuses here, not mid-run
             if r not in ENV_READINGS:
                 self.sim.readings(r)
         self.camera = None
         """The camera drawing the image after the readings (TaskConfig.camera), or None."""
         if self.cfg.camera is not None:
-            from sim.cameras.render import CameraRenderer  # GL only where a camera is asked
+            # the renderer imports MuJoCo, which an env without a camera may never load
+            from sim.cameras.render import CameraRenderer
 
             self.camera = CameraRenderer(modules, self.cfg.camera, cache=max(64, 2 * n))
-            self.obs_dim += self.cfg.camera.size
         self._obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         cfg = self.cfg
         self._act_scale = np.array([cfg.max_lin_vel] * 3 + [cfg.max_ang_vel] * 3)
@@ -345,19 +346,18 @@ class PegInHoleVecEnv:
         """The readings of envs idx (TaskConfig.readings) into out[rows, 18:] (rows: where
         out holds those envs), with their noise (drawn only when there are readings: without
         them, the draws are the paper's)."""
+        image_start = T.OBS_DIM + len(self._reading_noise)  # the readings lie before it
         if self.cfg.readings:
             values = np.concatenate([self._reading(r, idx) for r in self.cfg.readings], axis=1)
             if self.cfg.noise:
                 values = values + self._reading_noise * self.rng.standard_normal(values.shape)
-            out[rows, T.OBS_DIM : T.OBS_DIM + len(self._reading_noise)] = values
+            out[rows, T.OBS_DIM : image_start] = values
         if self.camera is not None:
-            from sim.cameras.noise import corrupt
-
             pos, quat = self.sim.peg_pos[idx], self.sim.peg_quat[idx]
             images = self.camera.render(self.env_module[idx], pos, quat)
             if self.cfg.noise:
                 corrupt(images, self.camera.cfg, self.rng)
-            out[rows, T.OBS_DIM + len(self._reading_noise) :] = images.reshape(len(images), -1)
+            out[rows, image_start:] = images.reshape(len(images), -1)
 
     def _reading(self, name: str, idx: np.ndarray) -> np.ndarray:
         """(k, n) the reading `name` of envs idx, noise-free: the env's own (ENV_READINGS) or

@@ -107,9 +107,11 @@ class Student:
         tensors, doc = ckpt.load(path)
         if "student" not in doc:
             raise ckpt.CheckpointError(f"{path} is a checkpoint, but not a student's")
-        d = {k: tuple(v) if isinstance(v, list) else v for k, v in doc["student"].items()}
-        camera = {k: tuple(v) if isinstance(v, list) else v for k, v in doc["camera"].items()}
-        student = cls(StudentConfig(**d), camera)
+
+        def tuples(d: dict[str, Any]) -> dict[str, Any]:  # JSON's lists back to tuples
+            return {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+
+        student = cls(StudentConfig(**tuples(doc["student"])), tuples(doc["camera"]))
         student.net.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("net/")})
         student.net.eval()
         return student, doc
